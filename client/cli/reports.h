@@ -1,0 +1,26 @@
+#pragma once
+
+//! \file reports.h
+//! \brief Text and JSON renderings of validation reports, holes and fill results.
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "server/geometry/hole_filling.h"
+#include "server/geometry/holes.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_io.h"
+
+namespace touchmend::cli {
+
+nlohmann::json to_json(const geometry::ValidationReport& report);
+nlohmann::json to_json(const geometry::Hole& hole);
+nlohmann::json to_json(const geometry::HoleFillReport& report);
+
+std::string validation_text(const geometry::ValidationReport& report);
+std::string holes_text(const std::vector<geometry::Hole>& holes);
+std::string fill_text(const geometry::HoleFillReport& report);
+
+}  // namespace touchmend::cli

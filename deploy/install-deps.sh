@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package touchmend's build, tests and benchmarks need.
+# Idempotent: packages already present are left alone; safe to run any number of times.
+# Usage: deploy/install-deps.sh [--no-bench]   (--no-bench skips the optional CGAL comparison)
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake ninja-build ccache pkg-config git
+  # geometry core
+  libopenmesh-dev libeigen3-dev
+  # command line, logging, JSON output
+  libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+if [[ "${1:-}" != "--no-bench" ]]; then
+  # CGAL is used only by the optional comparison benchmark (GPL-3, never linked into the product).
+  packages+=(libcgal-dev)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "install-deps: all ${#packages[@]} packages already installed"
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,75 @@
+#pragma once
+
+//! \file bvh.h
+//! \brief A static bounding-volume hierarchy over triangles: box queries and closest points.
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "server/geometry/intersection.h"
+#include "server/geometry/mesh.h"
+
+namespace touchmend::geometry {
+
+using Box3 = Eigen::AlignedBox3d;
+
+Box3 triangle_box(const TrianglePoints& t);
+
+class TriangleBvh {
+ public:
+  TriangleBvh() = default;
+  explicit TriangleBvh(std::vector<TrianglePoints> triangles);
+
+  std::size_t size() const { return triangles_.size(); }
+  const TrianglePoints& triangle(std::size_t i) const { return triangles_[i]; }
+
+  //! Calls visit(triangle index) for every triangle whose box overlaps \p box.
+  template <typename Visit>
+  void query_box(const Box3& box, Visit&& visit) const {
+    if (nodes_.empty()) return;
+    std::uint32_t stack[64];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      if (!node.box.intersects(box)) continue;
+      if (node.count > 0) {
+        for (std::uint32_t i = 0; i < node.count; ++i) visit(order_[node.first + i]);
+      } else if (top + 2 <= 64) {
+        stack[top++] = node.first;
+        stack[top++] = node.first + 1;
+      }
+    }
+  }
+
+  struct Closest {
+    double distance2 = 0;
+    Vec3 point{0, 0, 0};
+    std::uint32_t triangle = 0;
+    bool found = false;
+  };
+  //! The closest point of any triangle to \p p.
+  Closest closest_point(const Vec3& p) const;
+
+ private:
+  struct Node {
+    Box3 box;
+    std::uint32_t first = 0;  // leaf: first index into order_; inner: left child (right = +1)
+    std::uint32_t count = 0;  // leaf: triangle count; inner: 0
+  };
+  void build(std::uint32_t node, std::uint32_t begin, std::uint32_t end,
+             const std::vector<Vec3>& centroids);
+
+  std::vector<TrianglePoints> triangles_;
+  std::vector<Box3> boxes_;
+  std::vector<std::uint32_t> order_;
+  std::vector<Node> nodes_;
+};
+
+//! The triangles of \p mesh's faces (non-deleted), in face order, and their face handles.
+std::vector<TrianglePoints> mesh_triangles(const Mesh& mesh, std::vector<FaceHandle>* faces = nullptr);
+
+}  // namespace touchmend::geometry

@@ -1,0 +1,419 @@
+#include "server/geometry/hole_filling.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <unordered_map>
+
+#include <fmt/format.h>
+
+#include "server/geometry/bvh.h"
+#include "server/geometry/intersection.h"
+#include "server/geometry/liepa_triangulation.h"
+#include "server/geometry/mesh_intersections.h"
+#include "server/geometry/piecewise_split.h"
+#include "server/geometry/planar_triangulation.h"
+#include "server/geometry/projection.h"
+#include "server/geometry/refinement.h"
+
+namespace touchmend::geometry {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+//! What the triangulators need to know about a hole loop.
+struct LoopData {
+  std::vector<Vec3> points;
+  std::vector<Vec3> opposite;  //!< third vertex of the mesh triangle across boundary edge i
+  std::vector<Vec3> normals;   //!< vertex normals at the loop vertices
+  std::vector<std::pair<int, int>> blocked;  //!< loop pairs already joined by a mesh edge
+};
+
+Vec3 vertex_normal(const Mesh& mesh, VertexHandle v) {
+  Vec3 n(0, 0, 0);
+  for (const FaceHandle f : mesh.vf_range(v)) {
+    auto it = mesh.cfv_iter(f);
+    const Vec3 a = mesh.point(*it);
+    const Vec3 b = mesh.point(*++it);
+    const Vec3 c = mesh.point(*++it);
+    n += OpenMesh::cross(b - a, c - a);  // area-weighted
+  }
+  return n.normalize_cond();
+}
+
+LoopData gather_loop(const Mesh& mesh, const Hole& hole) {
+  LoopData d;
+  const std::size_t n = hole.loop.size();
+  std::unordered_map<int, int> index_of;
+  for (std::size_t i = 0; i < n; ++i) {
+    index_of[hole.loop[i].idx()] = static_cast<int>(i);
+    d.points.push_back(mesh.point(hole.loop[i]));
+    d.normals.push_back(vertex_normal(mesh, hole.loop[i]));
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const HalfedgeHandle in_face = mesh.opposite_halfedge_handle(hole.halfedges[i]);
+    if (mesh.is_boundary(in_face)) {
+      d.opposite.push_back(0.5 * (d.points[i] + d.points[(i + 1) % n]));
+    } else {
+      d.opposite.push_back(mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(in_face))));
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    for (const VertexHandle w : mesh.vv_range(hole.loop[i])) {
+      const auto it = index_of.find(w.idx());
+      if (it == index_of.end()) continue;
+      const int j = it->second;
+      const int ii = static_cast<int>(i);
+      if (j <= ii) continue;
+      const bool consecutive = j == ii + 1 || (ii == 0 && j == static_cast<int>(n) - 1);
+      if (!consecutive) d.blocked.emplace_back(ii, j);
+    }
+  return d;
+}
+
+//! A triangulation over the pool (loop vertices 0..n-1, then new points).
+struct TopologyPatch {
+  bool ok = false;
+  std::string failure;
+  std::vector<Vec3> new_points;
+  std::vector<std::array<int, 3>> triangles;
+  std::size_t pieces = 1;
+  std::size_t angles_closed = 0;
+};
+
+TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole, const LoopData& loop,
+                          const FillOptions& options) {
+  TopologyPatch out;
+  if (method == FillMethod::Planar) {
+    const ReferenceFrame frame = ReferenceFrame::from_normal(hole.reference_normal, hole.centroid);
+    std::vector<Point2> polygon;
+    for (const Vec3& p : loop.points) polygon.push_back(frame.project(p));
+    PlanarTriangulationOptions planar;
+    planar.close_angle = options.close_angle;
+    PlanarTriangulation t = triangulate_planar(polygon, loop.blocked, planar);
+    out.ok = t.ok;
+    out.failure = t.failure;
+    out.triangles = std::move(t.triangles);
+    out.angles_closed = t.angles_closed;
+    return out;
+  }
+  if (method == FillMethod::MinimumWeight3d) {
+    LiepaTriangulationOptions dp;
+    dp.max_vertices = options.max_dp_vertices;
+    LiepaTriangulation t = triangulate_min_dihedral(loop.points, loop.opposite, loop.blocked, dp);
+    out.ok = t.ok;
+    out.failure = t.failure;
+    out.triangles = std::move(t.triangles);
+    return out;
+  }
+  // Piecewise: chords must clear the surrounding surface. Collect the faces near the hole once.
+  Box3 region;
+  for (const Vec3& p : loop.points) region.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  const double pad = 0.1 * region.diagonal().norm() + hole.mean_edge_length;
+  region.min().array() -= pad;
+  region.max().array() += pad;
+  std::vector<TrianglePoints> near_faces;
+  std::vector<std::array<int, 3>> near_ids;
+  for (const FaceHandle f : mesh.faces()) {
+    TrianglePoints t;
+    std::array<int, 3> ids;
+    int k = 0;
+    for (const VertexHandle v : mesh.fv_range(f)) {
+      t[static_cast<std::size_t>(k)] = mesh.point(v);
+      ids[static_cast<std::size_t>(k++)] = v.idx();
+    }
+    if (!triangle_box(t).intersects(region)) continue;
+    near_faces.push_back(t);
+    near_ids.push_back(ids);
+  }
+  const TriangleBvh bvh(near_faces);
+  const double clearance_cap = hole.mean_edge_length;
+  PiecewiseInput in;
+  in.loop = loop.points;
+  in.opposite = loop.opposite;
+  in.vertex_normals = loop.normals;
+  in.blocked = loop.blocked;
+  in.mean_edge_length = hole.mean_edge_length;
+  in.chord_clearance = [&](int ia, int ib, const Vec3& a, const Vec3& b) {
+    const int n = static_cast<int>(hole.loop.size());
+    const int va = ia < n ? hole.loop[static_cast<std::size_t>(ia)].idx() : -1;
+    const int vb = ib < n ? hole.loop[static_cast<std::size_t>(ib)].idx() : -1;
+    Box3 box;
+    box.extend(Eigen::Vector3d(a[0], a[1], a[2]));
+    box.extend(Eigen::Vector3d(b[0], b[1], b[2]));
+    box.min().array() -= clearance_cap;
+    box.max().array() += clearance_cap;
+    double best = clearance_cap;
+    bvh.query_box(box, [&](std::uint32_t t) {
+      const auto& ids = near_ids[t];
+      for (int id : ids)
+        if (id == va || id == vb) return;
+      best = std::min(best, segment_triangle_distance(a, b, near_faces[t]));
+    });
+    return best;
+  };
+  PiecewiseOptions po;
+  po.max_dp_vertices = options.max_dp_vertices;
+  po.planar.close_angle = options.close_angle;
+  PiecewiseResult r = triangulate_piecewise(in, po);
+  out.ok = r.ok;
+  out.failure = r.failure;
+  out.new_points = std::move(r.new_points);
+  out.triangles = std::move(r.triangles);
+  out.pieces = r.pieces;
+  out.angles_closed = r.angles_closed;
+  return out;
+}
+
+void remove_patch(Mesh& mesh, const std::vector<FaceHandle>& faces, const std::vector<VertexHandle>& vertices) {
+  for (const FaceHandle f : faces)
+    if (!mesh.status(f).deleted()) mesh.delete_face(f, true);
+  for (const VertexHandle v : vertices)
+    if (!mesh.status(v).deleted() && mesh.is_isolated(v)) mesh.delete_vertex(v, false);
+}
+
+//! Adds the triangulation to the mesh. Faces are added in passes so that a face OpenMesh
+//! cannot link yet (its fan not contiguous) is retried once its neighbours exist.
+bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch, std::vector<FaceHandle>& faces,
+                  std::vector<VertexHandle>& vertices, std::string& why) {
+  std::vector<VertexHandle> pool(hole.loop.begin(), hole.loop.end());
+  for (const Vec3& p : patch.new_points) {
+    const VertexHandle v = mesh.add_vertex(p);
+    pool.push_back(v);
+    vertices.push_back(v);
+  }
+  std::vector<std::array<int, 3>> pending = patch.triangles;
+  while (!pending.empty()) {
+    std::vector<std::array<int, 3>> retry;
+    for (const auto& t : pending) {
+      const FaceHandle f = mesh.add_face(pool[static_cast<std::size_t>(t[0])], pool[static_cast<std::size_t>(t[1])],
+                                         pool[static_cast<std::size_t>(t[2])]);
+      if (f.is_valid()) faces.push_back(f);
+      else retry.push_back(t);
+    }
+    if (retry.size() == pending.size()) {
+      why = fmt::format("{} of {} triangles could not be linked into the mesh (non-manifold result)",
+                        retry.size(), patch.triangles.size());
+      remove_patch(mesh, faces, vertices);
+      faces.clear();
+      vertices.clear();
+      return false;
+    }
+    pending = std::move(retry);
+  }
+  return true;
+}
+
+//! Auto shape: flat when the boundary and every triangle around it lie in the hole's plane.
+PatchShape decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions& options, std::string& reason) {
+  const Vec3 n = hole.reference_normal.norm() > 0 ? hole.reference_normal : hole.normal;
+  double max_dev = 0;
+  std::vector<char> seen;
+  for (const VertexHandle v : hole.loop)
+    for (const FaceHandle f : mesh.vf_range(v)) {
+      const auto i = static_cast<std::size_t>(f.idx());
+      if (i >= seen.size()) seen.resize(i + 1, 0);
+      if (seen[i]) continue;
+      seen[i] = 1;
+      const Vec3 fn = mesh.calc_face_normal(f);
+      if (fn.norm() == 0) continue;
+      max_dev = std::max(max_dev, std::acos(std::clamp(OpenMesh::dot(fn, n), -1.0, 1.0)));
+    }
+  const double max_dev_deg = max_dev * 180.0 / std::numbers::pi;
+  const double size = std::max(hole.perimeter / std::numbers::pi, 1e-300);
+  const double planarity = hole.planarity / size;
+  if (max_dev_deg <= options.flat_max_normal_deviation_deg && planarity <= 0.01) {
+    reason = fmt::format("planar surroundings (neighbour normals within {:.1f} deg of the hole plane)",
+                         max_dev_deg);
+    return PatchShape::Flat;
+  }
+  reason = fmt::format("curved surroundings (neighbour normals up to {:.1f} deg from the hole plane, "
+                       "boundary off-plane {:.1f}% of its size)",
+                       max_dev_deg, 100 * planarity);
+  return PatchShape::Fair;
+}
+
+}  // namespace
+
+const char* to_string(PatchShape shape) {
+  switch (shape) {
+    case PatchShape::Flat: return "flat";
+    case PatchShape::Fair: return "fair";
+    case PatchShape::Auto: return "auto";
+  }
+  return "?";
+}
+
+bool parse_patch_shape(std::string_view text, PatchShape& shape) {
+  if (text == "flat") shape = PatchShape::Flat;
+  else if (text == "fair") shape = PatchShape::Fair;
+  else if (text == "auto") shape = PatchShape::Auto;
+  else return false;
+  return true;
+}
+
+const char* to_string(FillMethod method) {
+  switch (method) {
+    case FillMethod::Planar: return "planar";
+    case FillMethod::Piecewise: return "piecewise";
+    case FillMethod::MinimumWeight3d: return "minimum-weight-3d";
+  }
+  return "?";
+}
+
+HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options) {
+  const auto start = Clock::now();
+  HoleFillReport report;
+  report.hole_id = hole.id;
+  report.boundary_vertices = hole.loop.size();
+  report.reference_plane = hole.reference_source;
+  auto finish = [&]() -> HoleFillReport& {
+    report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    return report;
+  };
+  if (!hole.unfillable_reason.empty()) {
+    report.reason = hole.unfillable_reason;
+    return finish();
+  }
+  if (hole.loop.size() < 3) {
+    report.reason = "boundary loop with fewer than 3 edges";
+    return finish();
+  }
+  const LoopData loop = gather_loop(mesh, hole);
+  std::vector<FillMethod> methods;
+  if (hole.is_simple) methods = {FillMethod::Planar, FillMethod::MinimumWeight3d};
+  else methods = {FillMethod::Piecewise, FillMethod::MinimumWeight3d};
+
+  std::string shape_reason;
+  PatchShape shape = options.shape;
+  if (shape == PatchShape::Auto) shape = decide_shape(mesh, hole, options, shape_reason);
+  else shape_reason = "requested";
+
+  std::vector<std::string> failures;
+  for (const FillMethod method : methods) {
+    if (method == FillMethod::MinimumWeight3d && hole.loop.size() > options.max_dp_vertices) {
+      failures.push_back(fmt::format("{}: {} boundary vertices exceed its limit of {}", to_string(method),
+                                     hole.loop.size(), options.max_dp_vertices));
+      continue;
+    }
+    TopologyPatch patch = triangulate(method, mesh, hole, loop, options);
+    if (!patch.ok) {
+      failures.push_back(fmt::format("{}: {}", to_string(method), patch.failure));
+      continue;
+    }
+    std::vector<FaceHandle> faces;
+    std::vector<VertexHandle> vertices;
+    std::string why;
+    if (!insert_patch(mesh, hole, patch, faces, vertices, why)) {
+      failures.push_back(fmt::format("{}: {}", to_string(method), why));
+      continue;
+    }
+    HoleFillReport attempt = report;
+    attempt.method = method;
+    attempt.pieces = patch.pieces;
+    attempt.angles_closed = patch.angles_closed;
+    if (options.refine_iterations > 0) {
+      RefinementOptions ro;
+      ro.max_rounds = options.refine_iterations;
+      const RefinementReport rr = refine_patch(mesh, faces, vertices, ro);
+      attempt.refinement_rounds = static_cast<std::size_t>(rr.rounds);
+      attempt.splits = rr.splits;
+      attempt.flips = rr.flips;
+    }
+    attempt.shape = PatchShape::Flat;
+    attempt.shape_reason = shape_reason;
+    std::vector<Vec3> flat_positions;
+    if (shape == PatchShape::Fair) {
+      if (vertices.empty()) {
+        attempt.shape_reason = "no interior vertices to fair (" + shape_reason + ")";
+      } else {
+        for (const VertexHandle v : vertices) flat_positions.push_back(mesh.point(v));
+        const FairingReport fr = fair_vertices(mesh, vertices, options.fairing);
+        if (fr.ok) {
+          attempt.shape = PatchShape::Fair;
+        } else {
+          attempt.warnings.push_back("fairing failed (" + fr.failure + "); the patch stays flat");
+        }
+      }
+    }
+    if (options.check_intersections && !find_face_intersections(mesh, faces, 1).empty()) {
+      if (attempt.shape == PatchShape::Fair) {
+        for (std::size_t i = 0; i < vertices.size(); ++i) mesh.set_point(vertices[i], flat_positions[i]);
+        attempt.shape = PatchShape::Flat;
+        attempt.warnings.push_back("the faired patch intersected the mesh; kept it flat");
+      }
+      if (attempt.shape == PatchShape::Flat && !find_face_intersections(mesh, faces, 1).empty()) {
+        remove_patch(mesh, faces, vertices);
+        failures.push_back(fmt::format("{}: the new faces would intersect existing faces", to_string(method)));
+        continue;
+      }
+    }
+    attempt.filled = true;
+    attempt.reason.clear();
+    attempt.faces_added = faces.size();
+    attempt.vertices_added = vertices.size();
+    attempt.new_faces = std::move(faces);
+    attempt.new_vertices = std::move(vertices);
+    if (!failures.empty())
+      attempt.warnings.push_back("earlier methods failed: " + fmt::format("{}", fmt::join(failures, "; ")));
+    report = std::move(attempt);
+    return finish();
+  }
+  report.reason = failures.empty() ? "no method applies" : fmt::format("{}", fmt::join(failures, "; "));
+  return finish();
+}
+
+std::size_t FillReport::filled() const {
+  return static_cast<std::size_t>(std::count_if(holes.begin(), holes.end(), [](const HoleFillReport& h) { return h.filled; }));
+}
+
+std::size_t FillReport::left_open() const {
+  return static_cast<std::size_t>(
+      std::count_if(holes.begin(), holes.end(), [](const HoleFillReport& h) { return !h.filled && !h.skipped; }));
+}
+
+FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOptions& options,
+                      const FillProgress& progress) {
+  FillReport report;
+  const HoleSearchResult found = find_holes(mesh);
+  report.holes_found = found.holes.size();
+  std::vector<const Hole*> selected;
+  switch (selection.mode) {
+    case FillSelection::Mode::All:
+      for (const Hole& h : found.holes) selected.push_back(&h);
+      break;
+    case FillSelection::Mode::Ids:
+      for (const std::uint32_t id : selection.ids) {
+        const auto i = find_hole_by_id(found.holes, id);
+        if (!i) {
+          report.unknown_ids.push_back(id);
+          continue;
+        }
+        if (std::find(selected.begin(), selected.end(), &found.holes[*i]) == selected.end())
+          selected.push_back(&found.holes[*i]);
+      }
+      break;
+    case FillSelection::Mode::Nearest:
+      if (const auto nearest = find_nearest_hole(mesh, found.holes, selection.point))
+        selected.push_back(&found.holes[nearest->index]);
+      break;
+  }
+  for (std::size_t i = 0; i < selected.size(); ++i) {
+    const Hole& hole = *selected[i];
+    if (selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary) {
+      HoleFillReport skipped;
+      skipped.hole_id = hole.id;
+      skipped.boundary_vertices = hole.loop.size();
+      skipped.skipped = true;
+      skipped.reason = fmt::format("{} boundary edges exceed the limit of {}", hole.loop.size(), selection.max_boundary);
+      report.holes.push_back(std::move(skipped));
+    } else {
+      report.holes.push_back(fill_hole(mesh, hole, options));
+    }
+    if (progress && !progress(i + 1, selected.size())) break;
+  }
+  return report;
+}
+
+}  // namespace touchmend::geometry

@@ -1,0 +1,105 @@
+#pragma once
+
+//! \file hole_filling.h
+//! \brief Filling holes: seed 000 Algorithms I-III for simple holes, seed 001's piecewise
+//! split for complex ones, a 3D minimum-weight triangulation as the last resort, then
+//! refinement and a per-hole shape decision (flat or faired).
+//!
+//! \details Pipeline per hole (ALGORITHMS.md §1.4, §2, §5, §6):
+//!  1. reference plane from the boundary triangles' normals, rotation to +Z, projectability
+//!     test with the Newell and least-squares normals as fallbacks;
+//!  2. simple hole: close boundary angles below 5π/9, then Algorithm II (planar method);
+//!     complex hole: piecewise split into simple sub-holes; either failing: 3D DP;
+//!  3. Liepa refinement capped at the user's round count (Algorithm III);
+//!  4. shape: flat (the refined triangulation, exact on planar surroundings) or faired
+//!     (bi-Laplacian with the boundary ring fixed, so the patch continues the tangents of the
+//!     surface around it); `Auto` decides from the boundary and its neighbouring triangles;
+//!  5. the new faces must not intersect any face; a faired patch that does falls back to
+//!     flat, a method whose patch still does falls back to the next method, and a hole no
+//!     method can close is left open with the reason. Nothing else in the mesh changes.
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "server/geometry/fairing.h"
+#include "server/geometry/holes.h"
+#include "server/geometry/mesh.h"
+
+namespace touchmend::geometry {
+
+enum class PatchShape { Flat, Fair, Auto };
+const char* to_string(PatchShape shape);
+bool parse_patch_shape(std::string_view text, PatchShape& shape);
+
+enum class FillMethod { Planar, Piecewise, MinimumWeight3d };
+const char* to_string(FillMethod method);
+
+struct FillOptions {
+  int refine_iterations = 3;  //!< Algorithm III rounds (seed 000 §3.4.4: 1-5); 0 = none
+  PatchShape shape = PatchShape::Auto;
+  double close_angle = 5.0 * std::numbers::pi / 9.0;  //!< seed 000 §3.4.2
+  FairingOptions fairing;
+  std::size_t max_dp_vertices = 400;  //!< size limit of the O(n^3) 3D triangulation
+  bool check_intersections = true;
+  //! Auto shape: the patch stays flat when every triangle around the boundary is within this
+  //! angle of the hole's plane and the boundary lies in that plane (within 1% of its size).
+  double flat_max_normal_deviation_deg = 3.0;
+};
+
+struct HoleFillReport {
+  std::uint32_t hole_id = 0;
+  std::size_t boundary_vertices = 0;
+  bool filled = false;
+  bool skipped = false;  //!< not attempted (above the size limit)
+  std::string reason;    //!< why the hole was left open or skipped
+  FillMethod method = FillMethod::Planar;
+  std::string reference_plane;  //!< which normal made the hole simple ("none" if complex)
+  PatchShape shape = PatchShape::Flat;  //!< the shape actually applied
+  std::string shape_reason;
+  std::size_t pieces = 1;
+  std::size_t angles_closed = 0;
+  std::size_t refinement_rounds = 0;
+  std::size_t splits = 0;
+  std::size_t flips = 0;
+  std::size_t faces_added = 0;
+  std::size_t vertices_added = 0;
+  double seconds = 0;
+  std::vector<std::string> warnings;
+  std::vector<FaceHandle> new_faces;
+  std::vector<VertexHandle> new_vertices;
+};
+
+//! Fills one hole found by find_holes() on the current mesh. On failure the mesh is
+//! unchanged (faces the attempt added are deleted; call garbage_collection() before export).
+HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options = {});
+
+struct FillSelection {
+  enum class Mode { All, Ids, Nearest };
+  Mode mode = Mode::All;
+  std::vector<std::uint32_t> ids;  //!< Mode::Ids
+  Vec3 point{0, 0, 0};             //!< Mode::Nearest
+  std::size_t max_boundary = 0;    //!< holes with more boundary edges are skipped (0: no limit)
+};
+
+struct FillReport {
+  std::vector<HoleFillReport> holes;
+  std::vector<std::uint32_t> unknown_ids;  //!< requested ids that name no hole
+  std::size_t holes_found = 0;
+  std::size_t filled() const;
+  std::size_t left_open() const;
+};
+
+//! Called after each hole with (holes done, holes selected); return false to stop early.
+using FillProgress = std::function<bool(std::size_t done, std::size_t total)>;
+
+//! Finds the holes and fills the selected ones in id order.
+FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOptions& options = {},
+                      const FillProgress& progress = {});
+
+}  // namespace touchmend::geometry

@@ -1,0 +1,185 @@
+#include "server/geometry/holes.h"
+
+#include <algorithm>
+#include <limits>
+#include <set>
+
+#include "server/geometry/projection.h"
+
+namespace touchmend::geometry {
+
+HalfedgeHandle next_hole_halfedge(const Mesh& mesh, HalfedgeHandle incoming) {
+  // Rotate around the target vertex through the faces of the fan that starts at the face
+  // across `incoming`, until the fan ends at a boundary halfedge (ALGORITHMS.md §1.2).
+  const VertexHandle v = mesh.to_vertex_handle(incoming);
+  HalfedgeHandle g = mesh.opposite_halfedge_handle(incoming);
+  const std::size_t max_steps = 4 * mesh.valence(v) + 4;
+  for (std::size_t step = 0; step < max_steps; ++step) {
+    g = mesh.opposite_halfedge_handle(mesh.prev_halfedge_handle(g));
+    if (mesh.is_boundary(g)) return g;
+  }
+  return HalfedgeHandle();
+}
+
+void compute_hole_properties(const Mesh& mesh, Hole& hole, bool compute_projectability) {
+  const std::size_t n = hole.loop.size();
+  std::vector<Vec3> points(n);
+  for (std::size_t i = 0; i < n; ++i) points[i] = mesh.point(hole.loop[i]);
+  hole.perimeter = 0;
+  Vec3 weighted(0, 0, 0);
+  Vec3 newell(0, 0, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3& p = points[i];
+    const Vec3& q = points[(i + 1) % n];
+    const double len = (q - p).norm();
+    hole.perimeter += len;
+    weighted += 0.5 * (p + q) * len;
+    newell += OpenMesh::cross(p, q);
+  }
+  hole.mean_edge_length = n > 0 ? hole.perimeter / static_cast<double>(n) : 0;
+  hole.centroid = hole.perimeter > 0 ? weighted / hole.perimeter : points.front();
+  newell *= 0.5;
+  hole.area = newell.norm();
+  hole.newell_normal = hole.area > 0 ? newell / hole.area : Vec3(0, 0, 0);
+
+  // Seed 000 §3.4.1: the hole normal is the average of the boundary triangles' normals.
+  std::set<int> seen_faces;
+  std::vector<Vec3> outside_points;
+  Vec3 normal_sum(0, 0, 0);
+  std::size_t boundary_faces = 0;
+  for (const HalfedgeHandle h : hole.halfedges) {
+    const HalfedgeHandle in_face = mesh.opposite_halfedge_handle(h);
+    const FaceHandle f = mesh.face_handle(in_face);
+    if (!f.is_valid()) continue;
+    outside_points.push_back(mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(in_face))));
+    if (!seen_faces.insert(f.idx()).second) continue;
+    const Vec3 a = mesh.point(mesh.from_vertex_handle(in_face));
+    const Vec3 b = mesh.point(mesh.to_vertex_handle(in_face));
+    const Vec3 c = outside_points.back();
+    Vec3 fn = OpenMesh::cross(b - a, c - a);
+    const double len = fn.norm();
+    if (len > 0) {
+      normal_sum += fn / len;
+      ++boundary_faces;
+    }
+  }
+  const double sum_len = normal_sum.norm();
+  hole.normal = sum_len > 0 ? normal_sum / sum_len : hole.newell_normal;
+
+  const Vec3 pca = pca_normal(points, hole.normal);
+  double planarity = 0;
+  for (const Vec3& p : points)
+    planarity = std::max(planarity, std::abs(OpenMesh::dot(p - hole.centroid, pca)));
+  hole.planarity = planarity;
+
+  hole.is_simple = false;
+  hole.reference_source = "none";
+  hole.reference_normal = hole.normal;
+  if (!compute_projectability || n < 3) return;
+  // Fallback chain (ALGORITHMS.md §1.4): boundary-triangle average (unless it nearly cancels,
+  // as at the open end of a tube), then the Newell normal, then the least-squares plane.
+  struct Candidate {
+    Vec3 normal;
+    const char* source;
+  };
+  std::vector<Candidate> candidates;
+  if (sum_len >= 0.1 * static_cast<double>(boundary_faces)) candidates.push_back({hole.normal, "boundary-triangles"});
+  if (hole.area > 0) candidates.push_back({hole.newell_normal, "newell"});
+  candidates.push_back({pca, "pca"});
+  const double tolerance = 0.05 * hole.mean_edge_length;
+  for (const Candidate& c : candidates) {
+    const ReferenceFrame frame = ReferenceFrame::from_normal(c.normal, hole.centroid);
+    if (test_projectable(points, outside_points, frame, tolerance).projectable) {
+      hole.is_simple = true;
+      hole.reference_normal = c.normal;
+      hole.reference_source = c.source;
+      return;
+    }
+  }
+}
+
+HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) {
+  HoleSearchResult result;
+  std::vector<std::uint8_t> visited(mesh.n_halfedges(), 0);
+  for (const HalfedgeHandle start : mesh.halfedges()) {
+    if (visited[start.idx()] || !mesh.is_boundary(start)) continue;
+    Hole hole;
+    HalfedgeHandle h = start;
+    bool corrupt = false;
+    do {
+      visited[h.idx()] = 1;
+      hole.loop.push_back(mesh.from_vertex_handle(h));
+      hole.halfedges.push_back(h);
+      h = next_hole_halfedge(mesh, h);
+      if (!h.is_valid() || (visited[h.idx()] && h != start) ||
+          hole.loop.size() > mesh.n_halfedges()) {
+        corrupt = true;
+        break;
+      }
+    } while (h != start);
+    if (corrupt) {
+      ++result.corrupt_fans;
+      continue;
+    }
+    if (hole.loop.size() < 3) hole.unfillable_reason = "boundary loop with fewer than 3 edges";
+    result.holes.push_back(std::move(hole));
+  }
+  // Deterministic order by the smallest hole halfedge (u, v), then stable ids.
+  auto key = [&](const Hole& hole) {
+    std::pair<int, int> best{std::numeric_limits<int>::max(), std::numeric_limits<int>::max()};
+    for (std::size_t i = 0; i < hole.loop.size(); ++i)
+      best = std::min(best, {hole.loop[i].idx(), hole.loop[(i + 1) % hole.loop.size()].idx()});
+    return best;
+  };
+  std::vector<std::pair<std::pair<int, int>, std::size_t>> order;
+  for (std::size_t i = 0; i < result.holes.size(); ++i) order.push_back({key(result.holes[i]), i});
+  std::sort(order.begin(), order.end());
+  std::vector<Hole> sorted;
+  sorted.reserve(result.holes.size());
+  std::set<std::uint32_t> used_ids;
+  std::uint32_t overflow_id = static_cast<std::uint32_t>(mesh.n_vertices());
+  for (const auto& [k, i] : order) {
+    Hole& hole = result.holes[i];
+    std::vector<std::uint32_t> ids;
+    for (const VertexHandle v : hole.loop) ids.push_back(static_cast<std::uint32_t>(v.idx()));
+    std::sort(ids.begin(), ids.end());
+    hole.id = overflow_id;
+    for (std::uint32_t id : ids)
+      if (!used_ids.count(id)) {
+        hole.id = id;
+        break;
+      }
+    if (hole.id == overflow_id) ++overflow_id;
+    used_ids.insert(hole.id);
+    compute_hole_properties(mesh, hole, options.compute_projectability);
+    sorted.push_back(std::move(hole));
+  }
+  result.holes = std::move(sorted);
+  return result;
+}
+
+std::optional<std::size_t> find_hole_by_id(const std::vector<Hole>& holes, std::uint32_t id) {
+  for (std::size_t i = 0; i < holes.size(); ++i)
+    if (holes[i].id == id) return i;
+  return std::nullopt;
+}
+
+std::optional<NearestHole> find_nearest_hole(const Mesh& mesh, const std::vector<Hole>& holes,
+                                             const Vec3& point) {
+  std::optional<NearestHole> best;
+  for (std::size_t i = 0; i < holes.size(); ++i) {
+    const Hole& hole = holes[i];
+    for (std::size_t k = 0; k < hole.loop.size(); ++k) {
+      const Vec3 a = mesh.point(hole.loop[k]);
+      const Vec3 b = mesh.point(hole.loop[(k + 1) % hole.loop.size()]);
+      const Vec3 ab = b - a;
+      const double len2 = ab.sqrnorm();
+      const double t = len2 > 0 ? std::clamp(OpenMesh::dot(point - a, ab) / len2, 0.0, 1.0) : 0.0;
+      const double d = (a + t * ab - point).norm();
+      if (!best || d < best->distance) best = NearestHole{i, d};
+    }
+  }
+  return best;
+}
+
+}  // namespace touchmend::geometry

@@ -1,0 +1,77 @@
+#pragma once
+
+//! \file holes.h
+//! \brief Hole search (seed 000 §3.3) and hole properties (seed 000 §3.4.1, seed 001 §2.1).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "server/geometry/mesh.h"
+
+namespace touchmend::geometry {
+
+//! One boundary loop. Its vertices run along the boundary halfedges (OpenMesh's
+//! boundary halfedges, face = null), so the hole lies on the left and the loop turns
+//! counter-clockwise around the hole seen from outside the surface.
+struct Hole {
+  //! Stable id: the smallest vertex index on the loop (ties between holes that share that
+  //! vertex go to the next-smallest free index). Unchanged by edits elsewhere in the mesh,
+  //! and by writing and re-reading the mesh, since vertex indices are kept.
+  std::uint32_t id = 0;
+  std::vector<VertexHandle> loop;
+  std::vector<HalfedgeHandle> halfedges;  //!< halfedges[i] runs loop[i] -> loop[i+1]
+  double perimeter = 0;
+  double mean_edge_length = 0;
+  double area = 0;       //!< |Newell vector area| (exact for planar loops, a lower bound otherwise)
+  Vec3 normal{0, 0, 0};  //!< mean unit normal of the boundary triangles (seed 000 §3.4.1)
+  Vec3 newell_normal{0, 0, 0};
+  Vec3 centroid{0, 0, 0};  //!< arc-length-weighted centroid of the boundary polyline
+  double planarity = 0;    //!< max distance of the boundary to its least-squares plane
+  //! True when the boundary projects onto a reference plane without self-intersection or
+  //! fold-over (a "simple" hole, seed 001 §2.1); false for a "complex" hole.
+  bool is_simple = false;
+  Vec3 reference_normal{0, 0, 1};   //!< the plane normal that made it simple (if simple)
+  std::string reference_source;     //!< "boundary-triangles", "newell", "pca" or "none"
+  //! Empty when the hole can be filled; otherwise why not (e.g. a non-manifold vertex).
+  std::string unfillable_reason;
+
+  std::size_t size() const { return loop.size(); }
+};
+
+struct HoleSearchResult {
+  std::vector<Hole> holes;
+  std::size_t corrupt_fans = 0;  //!< walks around a vertex that did not terminate (reported)
+};
+
+struct HoleSearchOptions {
+  bool compute_projectability = true;  //!< the O(n^2) simplicity test; off for a quick count
+};
+
+//! Finds every boundary loop. A vertex shared by two holes (seed 000 Fig. 3.5, which the
+//! thesis leaves out) is handled by the same-fan rule: the successor of an incoming
+//! boundary halfedge is the outgoing boundary halfedge reached by rotating through the
+//! faces of the same fan (ALGORITHMS.md §1.2), never the kernel's arbitrary link.
+HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options = {});
+
+//! The outgoing boundary halfedge that follows the boundary halfedge \p incoming at its
+//! target vertex within the same fan; invalid if the fan is corrupt.
+HalfedgeHandle next_hole_halfedge(const Mesh& mesh, HalfedgeHandle incoming);
+
+//! Index of the hole with \p id in \p holes, if any.
+std::optional<std::size_t> find_hole_by_id(const std::vector<Hole>& holes, std::uint32_t id);
+
+//! The hole whose boundary polyline passes closest to \p point (what the haptic station's
+//! selection calls), with that distance.
+struct NearestHole {
+  std::size_t index;
+  double distance;
+};
+std::optional<NearestHole> find_nearest_hole(const Mesh& mesh, const std::vector<Hole>& holes,
+                                             const Vec3& point);
+
+//! Recomputes the geometric properties of \p hole from its loop (used after edits).
+void compute_hole_properties(const Mesh& mesh, Hole& hole, bool compute_projectability);
+
+}  // namespace touchmend::geometry

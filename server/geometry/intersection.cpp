@@ -1,0 +1,217 @@
+#include "server/geometry/intersection.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace touchmend::geometry {
+namespace {
+
+double orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  return OpenMesh::dot(OpenMesh::cross(b - a, c - a), d - a);
+}
+
+int sign(double v, double eps) { return v > eps ? 1 : (v < -eps ? -1 : 0); }
+
+//! 2D tests for coplanar triangles, in the plane's dominant projection.
+struct Flat {
+  int ax, ay;
+  explicit Flat(const Vec3& normal) {
+    const Vec3 a(std::abs(normal[0]), std::abs(normal[1]), std::abs(normal[2]));
+    if (a[0] >= a[1] && a[0] >= a[2]) {
+      ax = 1;
+      ay = 2;
+    } else if (a[1] >= a[2]) {
+      ax = 2;
+      ay = 0;
+    } else {
+      ax = 0;
+      ay = 1;
+    }
+  }
+  double orient(const Vec3& a, const Vec3& b, const Vec3& c) const {
+    return (b[ax] - a[ax]) * (c[ay] - a[ay]) - (b[ay] - a[ay]) * (c[ax] - a[ax]);
+  }
+};
+
+bool coplanar_segments_cross(const Flat& f, const Vec3& a, const Vec3& b, const Vec3& c,
+                             const Vec3& d) {
+  const double d1 = f.orient(a, b, c), d2 = f.orient(a, b, d);
+  const double d3 = f.orient(c, d, a), d4 = f.orient(c, d, b);
+  return ((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0));
+}
+
+bool coplanar_point_in_triangle(const Flat& f, const Vec3& p, const TrianglePoints& t) {
+  const double s = f.orient(t[0], t[1], t[2]);
+  const double d0 = f.orient(t[0], t[1], p), d1 = f.orient(t[1], t[2], p),
+               d2 = f.orient(t[2], t[0], p);
+  if (s > 0) return d0 > 0 && d1 > 0 && d2 > 0;
+  return d0 < 0 && d1 < 0 && d2 < 0;
+}
+
+//! Proper overlap of two coplanar triangles (edges crossing or one corner strictly inside).
+bool coplanar_triangles_overlap(const TrianglePoints& t1, const TrianglePoints& t2,
+                                const Vec3& normal) {
+  const Flat f(normal);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (coplanar_segments_cross(f, t1[i], t1[(i + 1) % 3], t2[j], t2[(j + 1) % 3])) return true;
+  for (int i = 0; i < 3; ++i)
+    if (coplanar_point_in_triangle(f, t1[i], t2) || coplanar_point_in_triangle(f, t2[i], t1))
+      return true;
+  // Identical corners but one triangle inside the other's centroid region.
+  const Vec3 c1 = (t1[0] + t1[1] + t1[2]) / 3.0, c2 = (t2[0] + t2[1] + t2[2]) / 3.0;
+  return coplanar_point_in_triangle(f, c1, t2) || coplanar_point_in_triangle(f, c2, t1);
+}
+
+double scale_of(const TrianglePoints& t1, const TrianglePoints& t2) {
+  double s = 0;
+  for (const TrianglePoints* t : {&t1, &t2})
+    for (int i = 0; i < 3; ++i) s = std::max(s, ((*t)[(i + 1) % 3] - (*t)[i]).sqrnorm());
+  return std::sqrt(s);
+}
+
+}  // namespace
+
+bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const TrianglePoints& t) {
+  const double l = std::max({(t[1] - t[0]).norm(), (t[2] - t[0]).norm(), (q - p).norm()});
+  const double eps = 1e-14 * l * l * l;
+  const int sp = sign(orient3d(t[0], t[1], t[2], p), eps);
+  const int sq = sign(orient3d(t[0], t[1], t[2], q), eps);
+  if (sp == sq && sp != 0) return false;
+  if (sp == 0 && sq == 0) {  // coplanar: segment vs triangle in 2D
+    const Vec3 nrm = OpenMesh::cross(t[1] - t[0], t[2] - t[0]);
+    const Flat f(nrm);
+    for (int j = 0; j < 3; ++j)
+      if (coplanar_segments_cross(f, p, q, t[j], t[(j + 1) % 3])) return true;
+    return coplanar_point_in_triangle(f, p, t) || coplanar_point_in_triangle(f, q, t);
+  }
+  const int s0 = sign(orient3d(p, q, t[0], t[1]), eps);
+  const int s1 = sign(orient3d(p, q, t[1], t[2]), eps);
+  const int s2 = sign(orient3d(p, q, t[2], t[0]), eps);
+  const bool all_nonneg = s0 >= 0 && s1 >= 0 && s2 >= 0;
+  const bool all_nonpos = s0 <= 0 && s1 <= 0 && s2 <= 0;
+  return all_nonneg || all_nonpos;
+}
+
+bool triangles_intersect(const TrianglePoints& t1, const std::array<int, 3>& ids1,
+                         const TrianglePoints& t2, const std::array<int, 3>& ids2) {
+  int shared = 0;
+  int s1[3] = {-1, -1, -1}, s2[3] = {-1, -1, -1};  // position of shared corners
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (ids1[i] == ids2[j]) {
+        s1[shared] = i;
+        s2[shared] = j;
+        ++shared;
+      }
+  const double l = scale_of(t1, t2);
+  const double eps = 1e-14 * l * l * l;
+  const Vec3 n1 = OpenMesh::cross(t1[1] - t1[0], t1[2] - t1[0]);
+  const Vec3 n2 = OpenMesh::cross(t2[1] - t2[0], t2[2] - t2[0]);
+  if (n1.norm() <= 1e-14 * l * l || n2.norm() <= 1e-14 * l * l) return false;  // degenerate
+  if (shared == 3) return true;
+  if (shared == 2) {
+    // Only a fold-over can intersect: both coplanar, third corners on the same side.
+    const int o1 = 3 - s1[0] - s1[1], o2 = 3 - s2[0] - s2[1];
+    if (sign(orient3d(t1[0], t1[1], t1[2], t2[o2]), eps) != 0) return false;
+    const Vec3& a = t1[s1[0]];
+    const Vec3& b = t1[s1[1]];
+    const Flat f(n1);
+    return f.orient(a, b, t1[o1]) * f.orient(a, b, t2[o2]) > 0;
+  }
+  if (shared == 1) {
+    // Any intersection away from the shared corner crosses an opposite edge (see header).
+    const int i = s1[0], j = s2[0];
+    const Vec3& a1 = t1[(i + 1) % 3];
+    const Vec3& b1 = t1[(i + 2) % 3];
+    const Vec3& a2 = t2[(j + 1) % 3];
+    const Vec3& b2 = t2[(j + 2) % 3];
+    const int c1 = sign(orient3d(t1[0], t1[1], t1[2], a2), eps);
+    const int c2 = sign(orient3d(t1[0], t1[1], t1[2], b2), eps);
+    if (c1 == 0 && c2 == 0) {  // coplanar fan: overlap if the wedges overlap
+      return coplanar_triangles_overlap(t1, t2, n1);
+    }
+    return segment_intersects_triangle(a1, b1, t2) || segment_intersects_triangle(a2, b2, t1);
+  }
+  // No shared corner: general position.
+  const int d0 = sign(orient3d(t1[0], t1[1], t1[2], t2[0]), eps);
+  const int d1 = sign(orient3d(t1[0], t1[1], t1[2], t2[1]), eps);
+  const int d2 = sign(orient3d(t1[0], t1[1], t1[2], t2[2]), eps);
+  if (d0 == d1 && d1 == d2 && d0 != 0) return false;
+  if (d0 == 0 && d1 == 0 && d2 == 0) return coplanar_triangles_overlap(t1, t2, n1);
+  const int e0 = sign(orient3d(t2[0], t2[1], t2[2], t1[0]), eps);
+  const int e1 = sign(orient3d(t2[0], t2[1], t2[2], t1[1]), eps);
+  const int e2 = sign(orient3d(t2[0], t2[1], t2[2], t1[2]), eps);
+  if (e0 == e1 && e1 == e2 && e0 != 0) return false;
+  for (int i = 0; i < 3; ++i) {
+    if (segment_intersects_triangle(t1[i], t1[(i + 1) % 3], t2)) return true;
+    if (segment_intersects_triangle(t2[i], t2[(i + 1) % 3], t1)) return true;
+  }
+  return false;
+}
+
+Vec3 closest_point_on_triangle(const Vec3& p, const TrianglePoints& t) {
+  // Voronoi-region walk (Ericson, Real-Time Collision Detection, §5.1.5).
+  const Vec3& a = t[0];
+  const Vec3& b = t[1];
+  const Vec3& c = t[2];
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = OpenMesh::dot(ab, ap), d2 = OpenMesh::dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3 bp = p - b;
+  const double d3 = OpenMesh::dot(ab, bp), d4 = OpenMesh::dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  const Vec3 cp = p - c;
+  const double d5 = OpenMesh::dot(ab, cp), d6 = OpenMesh::dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  const double denom = va + vb + vc;
+  if (!(std::abs(denom) > 0)) return a;  // degenerate triangle
+  const double v = vb / denom, w = vc / denom;
+  return a + ab * v + ac * w;
+}
+
+double segment_segment_distance2(const Vec3& p1, const Vec3& q1, const Vec3& p2, const Vec3& q2) {
+  const Vec3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
+  const double a = d1.sqrnorm(), e = d2.sqrnorm(), f = OpenMesh::dot(d2, r);
+  double s = 0, t = 0;
+  if (a <= 1e-300 && e <= 1e-300) return r.sqrnorm();
+  if (a <= 1e-300) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = OpenMesh::dot(d1, r);
+    if (e <= 1e-300) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = OpenMesh::dot(d1, d2);
+      const double denom = a * e - b * b;
+      s = denom > 0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0) {
+        t = 0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  return ((p1 + d1 * s) - (p2 + d2 * t)).sqrnorm();
+}
+
+double segment_triangle_distance(const Vec3& p, const Vec3& q, const TrianglePoints& t) {
+  if (segment_intersects_triangle(p, q, t)) return 0;
+  double d2 = std::min((closest_point_on_triangle(p, t) - p).sqrnorm(),
+                       (closest_point_on_triangle(q, t) - q).sqrnorm());
+  for (int i = 0; i < 3; ++i)
+    d2 = std::min(d2, segment_segment_distance2(p, q, t[i], t[(i + 1) % 3]));
+  return std::sqrt(d2);
+}
+
+}  // namespace touchmend::geometry

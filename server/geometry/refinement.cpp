@@ -1,0 +1,170 @@
+#include "server/geometry/refinement.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace touchmend::geometry {
+namespace {
+
+//! Membership of faces in the patch, indexed by face index.
+class PatchSet {
+ public:
+  explicit PatchSet(const std::vector<FaceHandle>& faces) {
+    for (const FaceHandle f : faces) insert(f);
+  }
+  void insert(FaceHandle f) {
+    const auto i = static_cast<std::size_t>(f.idx());
+    if (i >= member_.size()) member_.resize(i + 1 + member_.size() / 2, 0);
+    member_[i] = 1;
+  }
+  bool contains(FaceHandle f) const {
+    const auto i = static_cast<std::size_t>(f.idx());
+    return f.is_valid() && i < member_.size() && member_[i] != 0;
+  }
+
+ private:
+  std::vector<char> member_;
+};
+
+//! Inside the smallest sphere through a, b, c (its centre lies in the triangle's plane).
+bool inside_smallest_sphere(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p) {
+  const Vec3 u = b - a, w = c - a;
+  const Vec3 n = OpenMesh::cross(u, w);
+  const double n2 = n.sqrnorm();
+  if (!(n2 > 0)) return false;
+  const Vec3 center = a + (u.sqrnorm() * OpenMesh::cross(w, n) + w.sqrnorm() * OpenMesh::cross(n, u)) / (2 * n2);
+  const double r2 = (a - center).sqrnorm();
+  return (p - center).sqrnorm() < r2 * (1 - 1e-9);
+}
+
+bool is_interior_patch_edge(const Mesh& mesh, EdgeHandle e, const PatchSet& patch) {
+  const HalfedgeHandle h0 = mesh.halfedge_handle(e, 0), h1 = mesh.halfedge_handle(e, 1);
+  return patch.contains(mesh.face_handle(h0)) && patch.contains(mesh.face_handle(h1));
+}
+
+//! Flip edge e if the circumsphere test asks for it and the flip is admissible.
+bool relax_edge(Mesh& mesh, EdgeHandle e, const PatchSet& patch) {
+  if (!is_interior_patch_edge(mesh, e, patch)) return false;
+  const HalfedgeHandle h0 = mesh.halfedge_handle(e, 0), h1 = mesh.halfedge_handle(e, 1);
+  const VertexHandle vi = mesh.from_vertex_handle(h0), vj = mesh.to_vertex_handle(h0);
+  const VertexHandle vk = mesh.to_vertex_handle(mesh.next_halfedge_handle(h0));
+  const VertexHandle vm = mesh.to_vertex_handle(mesh.next_halfedge_handle(h1));
+  const Vec3 &pi = mesh.point(vi), &pj = mesh.point(vj), &pk = mesh.point(vk), &pm = mesh.point(vm);
+  if (!inside_smallest_sphere(pi, pj, pk, pm) && !inside_smallest_sphere(pj, pi, pm, pk)) return false;
+  if (!mesh.is_flip_ok(e)) return false;  // boundary edge, or edge k-m already exists
+  // The two new triangles (k, i, m) and (m, j, k) must be non-degenerate and must not fold
+  // over relative to the two old ones (ALGORITHMS.md §2.4, our addition).
+  const Vec3 old_n = OpenMesh::cross(pj - pi, pk - pi).normalize_cond() +
+                     OpenMesh::cross(pi - pj, pm - pj).normalize_cond();
+  const Vec3 n1 = OpenMesh::cross(pi - pk, pm - pk);
+  const Vec3 n2 = OpenMesh::cross(pj - pm, pk - pm);
+  const double scale = std::max({(pi - pj).sqrnorm(), (pk - pm).sqrnorm(), 1e-300});
+  if (n1.norm() <= 1e-10 * scale || n2.norm() <= 1e-10 * scale) return false;
+  if (OpenMesh::dot(n1, old_n) <= 0 || OpenMesh::dot(n2, old_n) <= 0) return false;
+  mesh.flip(e);
+  return true;
+}
+
+std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, const PatchSet& patch,
+                           int max_passes) {
+  std::size_t flips = 0;
+  for (int pass = 0; pass < max_passes; ++pass) {
+    std::size_t flips_this_pass = 0;
+    std::vector<char> seen(mesh.n_edges(), 0);
+    for (const FaceHandle f : faces) {
+      // Collect first: flipping changes the face's halfedges.
+      EdgeHandle edges[3];
+      int k = 0;
+      for (const HalfedgeHandle h : mesh.fh_range(f)) edges[k++] = mesh.edge_handle(h);
+      for (const EdgeHandle e : edges) {
+        if (seen[static_cast<std::size_t>(e.idx())]) continue;
+        seen[static_cast<std::size_t>(e.idx())] = 1;
+        if (relax_edge(mesh, e, patch)) ++flips_this_pass;
+      }
+    }
+    flips += flips_this_pass;
+    if (flips_this_pass == 0) break;
+  }
+  return flips;
+}
+
+}  // namespace
+
+std::size_t relax_patch_edges(Mesh& mesh, const std::vector<FaceHandle>& patch_faces, int max_passes) {
+  const PatchSet patch(patch_faces);
+  return relax_pass_all(mesh, patch_faces, patch, max_passes);
+}
+
+RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
+                              std::vector<VertexHandle>& new_vertices, const RefinementOptions& options) {
+  RefinementReport report;
+  PatchSet patch(patch_faces);
+  std::vector<double> sigma(mesh.n_vertices(), 0.0);
+  auto sigma_of = [&](VertexHandle v) -> double& {
+    const auto i = static_cast<std::size_t>(v.idx());
+    if (i >= sigma.size()) sigma.resize(i + 1 + sigma.size() / 2, 0.0);
+    return sigma[i];
+  };
+  // Scale attributes: mean length of the edges at each patch vertex that are not interior to
+  // the patch (Liepa; ALGORITHMS.md §2.4 discrepancy 3). Vertices with only interior edges
+  // (chord vertices of a piecewise split) use all their edges.
+  for (const FaceHandle f : patch_faces)
+    for (const VertexHandle v : mesh.fv_range(f)) {
+      double& s = sigma_of(v);
+      if (s > 0) continue;
+      double sum = 0, sum_all = 0;
+      int count = 0, count_all = 0;
+      for (const HalfedgeHandle h : mesh.voh_range(v)) {
+        const double len = mesh.calc_edge_length(h);
+        sum_all += len;
+        ++count_all;
+        if (!is_interior_patch_edge(mesh, mesh.edge_handle(h), patch)) {
+          sum += len;
+          ++count;
+        }
+      }
+      s = count > 0 ? sum / count : (count_all > 0 ? sum_all / count_all : 0.0);
+    }
+  const double alpha = options.density_factor;
+  for (int round = 0; round < options.max_rounds; ++round) {
+    bool split_any = false;
+    const std::vector<FaceHandle> faces_this_round = patch_faces;
+    for (const FaceHandle f : faces_this_round) {
+      VertexHandle v[3];
+      int k = 0;
+      for (const VertexHandle vh : mesh.fv_range(f)) v[k++] = vh;
+      const Vec3 c = (mesh.point(v[0]) + mesh.point(v[1]) + mesh.point(v[2])) / 3.0;
+      const double sc = (sigma_of(v[0]) + sigma_of(v[1]) + sigma_of(v[2])) / 3.0;
+      bool split = true;
+      for (const VertexHandle vh : v) {
+        const double d = alpha * (c - mesh.point(vh)).norm();
+        if (!(d > sc && d > sigma_of(vh))) {
+          split = false;
+          break;
+        }
+      }
+      if (!split) continue;
+      EdgeHandle old_edges[3];
+      k = 0;
+      for (const HalfedgeHandle h : mesh.fh_range(f)) old_edges[k++] = mesh.edge_handle(h);
+      const VertexHandle nv = mesh.split(f, c);
+      sigma_of(nv) = sc;
+      new_vertices.push_back(nv);
+      for (const FaceHandle nf : mesh.vf_range(nv))
+        if (!patch.contains(nf)) {
+          patch.insert(nf);
+          patch_faces.push_back(nf);
+        }
+      for (const EdgeHandle e : old_edges)
+        if (relax_edge(mesh, e, patch)) ++report.flips;
+      ++report.splits;
+      split_any = true;
+    }
+    if (!split_any) break;
+    ++report.rounds;
+    report.flips += relax_pass_all(mesh, patch_faces, patch, options.max_relax_passes);
+  }
+  return report;
+}
+
+}  // namespace touchmend::geometry
