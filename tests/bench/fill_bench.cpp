@@ -1,0 +1,264 @@
+// touchmend-fill-bench: fills every hole of the shared cases with touchmend and, when built with
+// CGAL, with CGAL's triangulate_refine_and_fair_hole and triangulate_hole in the same run, and
+// prints per hole: time, faces added, distance to the ground truth, triangle quality.
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <numeric>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <OpenMesh/Core/System/omstream.hh>
+#include <fmt/format.h>
+
+#include "server/geometry/hole_filling.h"
+#include "server/geometry/holes.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_intersections.h"
+#include "server/geometry/metrics.h"
+#include "tests/support/cases.h"
+#include "tests/support/mesh_factory.h"
+#ifdef TOUCHMEND_HAVE_CGAL
+#include "tests/bench/cgal_reference.h"
+#endif
+
+namespace tmd = touchmend;
+namespace geo = touchmend::geometry;
+
+namespace {
+
+struct AnchorRow {
+  double best_mean = -1;  // permille, best of the anchors in BASELINE.md
+  double cgal_fair_ms = -1;
+};
+
+//! (case, hole) -> anchors' numbers from BASELINE.md's per-hole table.
+std::map<std::pair<std::string, std::string>, AnchorRow> read_baseline(const std::string& path) {
+  std::map<std::pair<std::string, std::string>, AnchorRow> out;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("| ", 0) != 0) continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line.substr(1));
+    std::string cell;
+    while (std::getline(ss, cell, '|')) {
+      cell.erase(0, cell.find_first_not_of(' '));
+      cell.erase(cell.find_last_not_of(' ') + 1);
+      cells.push_back(cell);
+    }
+    if (cells.size() < 20 || (cells[7].find("CGAL") == std::string::npos && cells[7].find("MeshLab") == std::string::npos))
+      continue;
+    AnchorRow& row = out[{cells[0], cells[1]}];
+    try {
+      const double mean = std::stod(cells[13]);
+      if (row.best_mean < 0 || mean < row.best_mean) row.best_mean = mean;
+    } catch (...) {
+    }
+    if (cells[7] == "CGAL refine+fair") try {
+        row.cgal_fair_ms = std::stod(cells[8]);
+      } catch (...) {
+      }
+  }
+  return out;
+}
+
+struct Workload {
+  std::string name;
+  geo::MeshSoup holed;
+  std::optional<tmd::testing::HoleCase> with_truth;  // ground truth when known
+  double diagonal = 0;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  omerr().disable();
+  omout().disable();
+  omlog().disable();
+  CLI::App app{"Fill benchmark over ../shared/data/cases (touchmend vs CGAL in the same run)"};
+  std::vector<std::string> only;
+  std::string shape = "auto";
+  int repeat = 5;
+  bool no_cgal = false;
+  app.add_option("--cases", only, "Only these cases");
+  app.add_option("--shape", shape, "touchmend --shape")->check(CLI::IsMember({"flat", "fair", "auto"}));
+  app.add_option("--repeat", repeat, "Timing repetitions (median is reported)")->check(CLI::Range(1, 100));
+  app.add_flag("--no-cgal", no_cgal, "Skip CGAL even if available");
+  CLI11_PARSE(app, argc, argv);
+
+  geo::FillOptions options;
+  geo::parse_patch_shape(shape, options.shape);
+  const auto baseline = read_baseline(tmd::testing::shared_data_dir() + "/cases/BASELINE.md");
+  bool cgal = false;
+#ifdef TOUCHMEND_HAVE_CGAL
+  cgal = !no_cgal;
+#endif
+  {
+    std::ifstream cpu("/proc/cpuinfo");
+    std::string line, model;
+    while (std::getline(cpu, line))
+      if (line.rfind("model name", 0) == 0) {
+        model = line.substr(line.find(':') + 2);
+        break;
+      }
+    fmt::print("machine: {} ({} hardware threads); touchmend shape={} refine={}; timing: median of {} runs; "
+               "CGAL 5.5 {}\n\n",
+               model, std::thread::hardware_concurrency(), shape, options.refine_iterations, repeat,
+               cgal ? "triangulate_refine_and_fair_hole / triangulate_hole (defaults)" : "not built");
+  }
+
+  std::vector<Workload> workloads;
+  for (const std::string& name : tmd::testing::list_cases()) {
+    if (!only.empty() && std::find(only.begin(), only.end(), name) == only.end()) continue;
+    std::string error;
+    auto c = tmd::testing::load_case(name, error);
+    if (!c) {
+      fmt::print(stderr, "skip {}: {}\n", name, error);
+      continue;
+    }
+    Workload w{name, c->holed, std::nullopt, c->diagonal};
+    if (!c->holes.empty()) w.with_truth = std::move(*c);
+    workloads.push_back(std::move(w));
+  }
+  // A hole of 500+ boundary vertices: rocker-arm_xl with every triangle split 1-to-4 (same
+  // surface, twice the boundary vertices: 528).
+  if (only.empty() || std::find(only.begin(), only.end(), "rocker-arm_xl_x2") != only.end()) {
+    std::string error;
+    if (auto c = tmd::testing::load_case("rocker-arm_xl", error)) {
+      Workload w{"rocker-arm_xl_x2", tmd::testing::subdivide_midpoint(c->holed), std::nullopt, c->diagonal};
+      workloads.push_back(std::move(w));
+    }
+  }
+
+  fmt::print("| case | hole | bnd | touchmend ms | CGAL fair ms | ratio | CGAL tri ms | tm faces | CGAL faces | tm method/shape "
+             "| tm H ‰ | tm mean ‰ | CGAL fair mean ‰ | CGAL tri mean ‰ | best anchor mean ‰ | tm min ∠ | CGAL min ∠ | tm max AR "
+             "| tm self-int |\n");
+  fmt::print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::size_t holes_total = 0, holes_closed = 0, holes_with_truth = 0, mean_at_most_best = 0, faster = 0, timed = 0;
+  std::size_t self_intersections = 0, manifold_failures = 0;
+  double worst_min_angle = 180;
+  std::vector<double> ratios;
+  for (const Workload& w : workloads) {
+    // Ours, repeated for timing; the last run is scored.
+    std::vector<std::vector<double>> times;
+    geo::BuildResult built;
+    geo::FillReport report;
+    std::vector<geo::Hole> holes;
+    for (int r = 0; r < repeat; ++r) {
+      built = geo::build_mesh(w.holed);
+      holes = geo::find_holes(built.mesh).holes;
+      report = geo::fill_holes(built.mesh, {}, options);
+      if (times.empty()) times.resize(report.holes.size());
+      for (std::size_t i = 0; i < report.holes.size() && i < times.size(); ++i) times[i].push_back(report.holes[i].seconds);
+    }
+    const geo::ValidationReport after = geo::validate_mesh(built.mesh);
+    if (!(after.non_manifold_edges == 0 && after.non_manifold_vertices == 0 && after.inconsistent_edges == 0))
+      ++manifold_failures;
+    std::vector<std::vector<std::uint32_t>> loops;
+    for (const auto& h : holes) {
+      std::vector<std::uint32_t> loop;
+      for (const auto v : h.loop) loop.push_back(static_cast<std::uint32_t>(v.idx()));
+      loops.push_back(loop);
+    }
+    std::vector<double> cgal_fair_s(loops.size(), -1), cgal_tri_s(loops.size(), -1);
+    std::vector<std::vector<geo::TrianglePoints>> cgal_fair_tris(loops.size()), cgal_tri_tris(loops.size());
+#ifdef TOUCHMEND_HAVE_CGAL
+    if (cgal) {
+      std::vector<std::vector<double>> tf(loops.size()), tt(loops.size());
+      for (int r = 0; r < repeat; ++r) {
+        auto fair = tmd::bench::cgal_fill_holes(w.holed, loops, tmd::bench::CgalMode::RefineAndFair);
+        auto tri = tmd::bench::cgal_fill_holes(w.holed, loops, tmd::bench::CgalMode::TriangulateOnly);
+        for (std::size_t i = 0; i < loops.size(); ++i) {
+          tf[i].push_back(fair[i].seconds);
+          tt[i].push_back(tri[i].seconds);
+          cgal_fair_tris[i] = std::move(fair[i].new_triangles);
+          cgal_tri_tris[i] = std::move(tri[i].new_triangles);
+        }
+      }
+      for (std::size_t i = 0; i < loops.size(); ++i) {
+        cgal_fair_s[i] = median(tf[i]);
+        cgal_tri_s[i] = median(tt[i]);
+      }
+    }
+#endif
+    for (std::size_t i = 0; i < report.holes.size(); ++i) {
+      const geo::HoleFillReport& h = report.holes[i];
+      ++holes_total;
+      holes_closed += h.filled ? 1 : 0;
+      const double ms = 1e3 * median(times[i]);
+      std::string label = fmt::format("id {}", h.hole_id);
+      std::string tm_h = "-", tm_mean = "-", fair_mean = "-", tri_mean = "-", best = "-";
+      const auto tris = geo::face_triangles(built.mesh, h.new_faces);
+      const auto quality = geo::triangle_quality(tris);
+      worst_min_angle = std::min(worst_min_angle, quality.min_angle_deg);
+      const std::size_t si = geo::find_face_intersections(built.mesh, h.new_faces).size();
+      self_intersections += si;
+      std::string cgal_min_angle = "-";
+      if (!cgal_fair_tris[i].empty()) cgal_min_angle = fmt::format("{:.1f}", geo::triangle_quality(cgal_fair_tris[i]).min_angle_deg);
+      if (w.with_truth) {
+        for (const auto& ch : w.with_truth->holes) {
+          const auto id = tmd::testing::matching_hole_id(holes, ch);
+          if (!id || *id != h.hole_id) continue;
+          label = std::to_string(ch.id);
+          const auto gt = tmd::testing::ground_truth(*w.with_truth, ch);
+          const double spacing = 0.002 * w.diagonal;
+          const auto d = geo::surface_distance(tris, gt, spacing);
+          tm_h = fmt::format("{:.2f}", 1000 * d.hausdorff / w.diagonal);
+          tm_mean = fmt::format("{:.2f}", 1000 * d.mean / w.diagonal);
+          if (!cgal_fair_tris[i].empty())
+            fair_mean = fmt::format("{:.2f}", 1000 * geo::surface_distance(cgal_fair_tris[i], gt, spacing).mean / w.diagonal);
+          if (!cgal_tri_tris[i].empty())
+            tri_mean = fmt::format("{:.2f}", 1000 * geo::surface_distance(cgal_tri_tris[i], gt, spacing).mean / w.diagonal);
+          const auto it = baseline.find({w.name, std::to_string(ch.id)});
+          if (it != baseline.end() && it->second.best_mean >= 0) {
+            best = fmt::format("{:.2f}", it->second.best_mean);
+            ++holes_with_truth;
+            // Compare at the table's printed precision (two decimals).
+            if (std::round(100 * 1000 * d.mean / w.diagonal) <= std::round(100 * it->second.best_mean)) ++mean_at_most_best;
+          }
+        }
+      }
+      std::string ratio = "-";
+      if (cgal_fair_s[i] > 0) {
+        const double rr = cgal_fair_s[i] * 1e3 / std::max(ms, 1e-6);
+        ratio = fmt::format("{:.1f}x", rr);
+        ratios.push_back(rr);
+        ++timed;
+        faster += ms <= cgal_fair_s[i] * 1e3 ? 1 : 0;
+      }
+      fmt::print("| {} | {} | {} | {:.3f} | {} | {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {:.1f} | {} | {:.1f} | {} |\n",
+                 w.name, label, h.boundary_vertices, ms, cgal_fair_s[i] >= 0 ? fmt::format("{:.3f}", 1e3 * cgal_fair_s[i]) : "-",
+                 ratio, cgal_tri_s[i] >= 0 ? fmt::format("{:.3f}", 1e3 * cgal_tri_s[i]) : "-", h.faces_added,
+                 cgal_fair_tris[i].empty() ? std::string("-") : std::to_string(cgal_fair_tris[i].size()),
+                 h.filled ? geo::to_string(h.method) : "OPEN", h.filled ? geo::to_string(h.shape) : h.reason.c_str(), tm_h,
+                 tm_mean, fair_mean, tri_mean, best, quality.min_angle_deg, cgal_min_angle, quality.max_aspect_ratio, si);
+    }
+  }
+  fmt::print("\nholes closed: {}/{}; meshes with manifold/orientation defects after filling: {}; "
+             "intersecting pairs involving new faces: {}\n",
+             holes_closed, holes_total, manifold_failures, self_intersections);
+  fmt::print("mean distance <= best anchor (BASELINE.md, 2 decimals): {}/{} holes ({:.0f}%)\n", mean_at_most_best,
+             holes_with_truth, holes_with_truth ? 100.0 * mean_at_most_best / holes_with_truth : 0.0);
+  fmt::print("worst minimum angle of a new face: {:.1f} deg\n", worst_min_angle);
+  if (timed) {
+    std::sort(ratios.begin(), ratios.end());
+    fmt::print("time vs CGAL refine+fair: touchmend at most as slow on {}/{} holes; speed-up min {:.1f}x, median {:.1f}x, "
+               "max {:.1f}x\n",
+               faster, timed, ratios.front(), ratios[ratios.size() / 2], ratios.back());
+  }
+  return 0;
+}

@@ -1,0 +1,158 @@
+#include "tests/support/mesh_factory.h"
+
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <unordered_map>
+
+namespace touchmend::testing {
+
+MeshSoup grid(int nx, int ny, const std::function<double(double, double)>& height) {
+  MeshSoup s;
+  for (int j = 0; j <= ny; ++j)
+    for (int i = 0; i <= nx; ++i) {
+      const double x = i, y = j;
+      s.points.emplace_back(x, y, height ? height(x, y) : 0.0);
+    }
+  auto id = [&](int i, int j) { return static_cast<std::uint32_t>(j * (nx + 1) + i); };
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      s.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+      s.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+    }
+  return s;
+}
+
+MeshSoup cylinder(double r, double height, int around, int rings) {
+  MeshSoup s;
+  for (int k = 0; k < rings; ++k)
+    for (int i = 0; i < around; ++i) {
+      const double a = 2 * std::numbers::pi * i / around;
+      s.points.emplace_back(r * std::cos(a), r * std::sin(a), height * k / (rings - 1));
+    }
+  auto id = [&](int i, int k) { return static_cast<std::uint32_t>(k * around + (i % around)); };
+  for (int k = 0; k + 1 < rings; ++k)
+    for (int i = 0; i < around; ++i) {
+      s.triangles.push_back({id(i, k), id(i + 1, k), id(i + 1, k + 1)});
+      s.triangles.push_back({id(i, k), id(i + 1, k + 1), id(i, k + 1)});
+    }
+  return s;
+}
+
+MeshSoup uv_sphere(double r, int around, int rings) {
+  MeshSoup s;
+  s.points.emplace_back(0, 0, -r);
+  for (int k = 1; k < rings; ++k) {
+    const double phi = std::numbers::pi * k / rings - std::numbers::pi / 2;
+    for (int i = 0; i < around; ++i) {
+      const double a = 2 * std::numbers::pi * i / around;
+      s.points.emplace_back(r * std::cos(phi) * std::cos(a), r * std::cos(phi) * std::sin(a), r * std::sin(phi));
+    }
+  }
+  s.points.emplace_back(0, 0, r);
+  const auto top = static_cast<std::uint32_t>(s.points.size() - 1);
+  auto id = [&](int i, int k) { return static_cast<std::uint32_t>(1 + (k - 1) * around + (i % around)); };
+  for (int i = 0; i < around; ++i) s.triangles.push_back({0, id(i + 1, 1), id(i, 1)});
+  for (int k = 1; k + 1 < rings; ++k)
+    for (int i = 0; i < around; ++i) {
+      s.triangles.push_back({id(i, k), id(i + 1, k), id(i + 1, k + 1)});
+      s.triangles.push_back({id(i, k), id(i + 1, k + 1), id(i, k + 1)});
+    }
+  for (int i = 0; i < around; ++i) s.triangles.push_back({id(i, rings - 1), id(i + 1, rings - 1), top});
+  return s;
+}
+
+MeshSoup cube(int n) {
+  MeshSoup s;
+  std::map<std::array<int, 3>, std::uint32_t> index;
+  auto vertex = [&](int x, int y, int z) {
+    const std::array<int, 3> key{x, y, z};
+    auto [it, inserted] = index.try_emplace(key, static_cast<std::uint32_t>(s.points.size()));
+    if (inserted) s.points.emplace_back(x, y, z);
+    return it->second;
+  };
+  // Each side: origin, two in-plane axes (u, v) with u x v pointing outward.
+  struct Side {
+    std::array<int, 3> origin, u, v;
+  };
+  const Side sides[6] = {{{0, 0, 0}, {0, 1, 0}, {1, 0, 0}},  // z = 0, normal -z
+                         {{0, 0, n}, {1, 0, 0}, {0, 1, 0}},  // z = n, normal +z
+                         {{0, 0, 0}, {1, 0, 0}, {0, 0, 1}},  // y = 0, normal -y
+                         {{0, n, 0}, {0, 0, 1}, {1, 0, 0}},  // y = n, normal +y
+                         {{0, 0, 0}, {0, 0, 1}, {0, 1, 0}},  // x = 0, normal -x
+                         {{n, 0, 0}, {0, 1, 0}, {0, 0, 1}}};  // x = n, normal +x
+  for (const Side& side : sides)
+    for (int b = 0; b < n; ++b)
+      for (int a = 0; a < n; ++a) {
+        auto at = [&](int da, int db) {
+          std::array<int, 3> p;
+          for (int c = 0; c < 3; ++c) p[c] = side.origin[c] + (a + da) * side.u[c] + (b + db) * side.v[c];
+          return vertex(p[0], p[1], p[2]);
+        };
+        s.triangles.push_back({at(0, 0), at(1, 0), at(1, 1)});
+        s.triangles.push_back({at(0, 0), at(1, 1), at(0, 1)});
+      }
+  return s;
+}
+
+MeshSoup annulus(int inner, double r_in, int rings, double ring_width) {
+  MeshSoup s;
+  for (int k = 0; k <= rings; ++k)
+    for (int i = 0; i < inner; ++i) {
+      const double a = 2 * std::numbers::pi * i / inner;
+      const double r = r_in + k * ring_width;
+      s.points.emplace_back(r * std::cos(a), r * std::sin(a), 0);
+    }
+  auto id = [&](int i, int k) { return static_cast<std::uint32_t>(k * inner + (i % inner)); };
+  for (int k = 0; k < rings; ++k)
+    for (int i = 0; i < inner; ++i) {
+      s.triangles.push_back({id(i, k), id(i + 1, k), id(i + 1, k + 1)});
+      s.triangles.push_back({id(i, k), id(i + 1, k + 1), id(i, k + 1)});
+    }
+  return s;
+}
+
+MeshSoup remove_faces(const MeshSoup& soup, const std::function<bool(const Vec3&)>& remove,
+                      std::vector<std::array<Vec3, 3>>* removed) {
+  MeshSoup out;
+  std::vector<std::int64_t> map(soup.points.size(), -1);
+  for (const auto& t : soup.triangles) {
+    const Vec3 c = (soup.points[t[0]] + soup.points[t[1]] + soup.points[t[2]]) / 3.0;
+    if (remove(c)) {
+      if (removed) removed->push_back({soup.points[t[0]], soup.points[t[1]], soup.points[t[2]]});
+      continue;
+    }
+    geometry::Triangle nt;
+    for (int k = 0; k < 3; ++k) {
+      if (map[t[k]] < 0) {
+        map[t[k]] = static_cast<std::int64_t>(out.points.size());
+        out.points.push_back(soup.points[t[k]]);
+      }
+      nt[k] = static_cast<std::uint32_t>(map[t[k]]);
+    }
+    out.triangles.push_back(nt);
+  }
+  return out;
+}
+
+MeshSoup subdivide_midpoint(const MeshSoup& soup) {
+  MeshSoup out;
+  out.points = soup.points;
+  std::unordered_map<std::uint64_t, std::uint32_t> mid;
+  auto midpoint = [&](std::uint32_t a, std::uint32_t b) {
+    const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+    auto [it, inserted] = mid.try_emplace(key, static_cast<std::uint32_t>(out.points.size()));
+    if (inserted) out.points.push_back(0.5 * (soup.points[a] + soup.points[b]));
+    return it->second;
+  };
+  for (const auto& t : soup.triangles) {
+    const std::uint32_t ab = midpoint(t[0], t[1]), bc = midpoint(t[1], t[2]), ca = midpoint(t[2], t[0]);
+    out.triangles.push_back({t[0], ab, ca});
+    out.triangles.push_back({ab, t[1], bc});
+    out.triangles.push_back({ca, bc, t[2]});
+    out.triangles.push_back({ab, bc, ca});
+  }
+  return out;
+}
+
+}  // namespace touchmend::testing

@@ -1,0 +1,44 @@
+#pragma once
+
+//! \file mesh_factory.h
+//! \brief Synthetic meshes built in the tests (grids, cylinders, spheres, cubes, annuli) and
+//! helpers that cut holes into them.
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "server/geometry/mesh.h"
+
+namespace touchmend::testing {
+
+using geometry::MeshSoup;
+using geometry::Vec3;
+
+//! A (nx x ny)-cell grid in the z = f(x, y) graph over [0, nx] x [0, ny], counter-clockwise
+//! seen from +z.
+MeshSoup grid(int nx, int ny, const std::function<double(double, double)>& height = {});
+
+//! An open cylinder of radius r around the z axis, `around` vertices per ring, `rings`
+//! rings from z = 0 to z = height, outward-facing.
+MeshSoup cylinder(double r, double height, int around, int rings);
+
+//! Closed sphere (latitude-longitude) of radius r, outward-facing.
+MeshSoup uv_sphere(double r, int around, int rings);
+
+//! Closed axis-aligned cube [0, n]^3 with n x n cells per side, outward-facing.
+MeshSoup cube(int n);
+
+//! A flat annulus in z = 0 around a hole of `inner` boundary vertices (radius r_in),
+//! with `rings` rings of quads outward: a planar hole of exactly `inner` edges.
+MeshSoup annulus(int inner, double r_in, int rings, double ring_width);
+
+//! Removes the faces whose predicate is true (and then unreferenced vertices, compacting
+//! indices). Returns the removed triangles' corner positions via \p removed if given.
+MeshSoup remove_faces(const MeshSoup& soup, const std::function<bool(const Vec3& centroid)>& remove,
+                      std::vector<std::array<Vec3, 3>>* removed = nullptr);
+
+//! 1-to-4 midpoint subdivision (same surface, twice the boundary vertices).
+MeshSoup subdivide_midpoint(const MeshSoup& soup);
+
+}  // namespace touchmend::testing
