@@ -83,9 +83,13 @@ struct TopologyPatch {
 };
 
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole, const LoopData& loop,
-                          const FillOptions& options) {
+                          const FillOptions& options, double longest_edge) {
   TopologyPatch out;
   if (method == FillMethod::Planar) {
+    if (!hole.is_simple) {
+      out.failure = "the boundary does not project onto a plane without self-intersection";
+      return out;
+    }
     const ReferenceFrame frame = ReferenceFrame::from_normal(hole.reference_normal, hole.centroid);
     std::vector<Point2> polygon;
     for (const Vec3& p : loop.points) polygon.push_back(frame.project(p));
@@ -115,7 +119,7 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
   region.max().array() += pad;
   std::vector<TrianglePoints> near_faces;
   std::vector<std::array<int, 3>> near_ids;
-  for (const FaceHandle f : mesh.faces()) {
+  for (const FaceHandle f : faces_in_box(mesh, region, longest_edge)) {
     TrianglePoints t;
     std::array<int, 3> ids;
     int k = 0;
@@ -123,7 +127,6 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
       t[static_cast<std::size_t>(k)] = mesh.point(v);
       ids[static_cast<std::size_t>(k++)] = v.idx();
     }
-    if (!triangle_box(t).intersects(region)) continue;
     near_faces.push_back(t);
     near_ids.push_back(ids);
   }
@@ -205,12 +208,29 @@ bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch, std:
   return true;
 }
 
-//! Auto shape: flat when the boundary and every triangle around it lie in the hole's plane.
-PatchShape decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions& options, std::string& reason) {
+struct ShapeDecision {
+  PatchShape shape = PatchShape::Fair;
+  bool feature = false;  //!< creases meet the boundary: follow them with the 3D triangulation
+  std::string reason;
+};
+
+//! Auto shape (ALGORITHMS.md §2.5 and BASELINE.md's observations): fairing wins on smooth
+//! surfaces but bulges planar holes and balloons next to creases; a triangulation that
+//! minimises dihedral angles to the neighbours recovers piecewise-planar (CAD) surfaces.
+//!  - planar: the boundary lies in a plane and every triangle around it is parallel to it
+//!    -> Algorithms I-III, flat (exact);
+//!  - feature: sharp edges (dihedral above the feature angle) touch the boundary at two or
+//!    more places (a crease enters and leaves, or a corner) -> minimum-dihedral triangulation,
+//!    kept flat;
+//!  - otherwise smooth -> bi-Laplacian fairing.
+ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions& options) {
+  ShapeDecision d;
   const Vec3 n = hole.reference_normal.norm() > 0 ? hole.reference_normal : hole.normal;
   double max_dev = 0;
   std::vector<char> seen;
-  for (const VertexHandle v : hole.loop)
+  std::size_t sharp_edges = 0;
+  const double cos_feature = std::cos(options.feature_angle_deg * std::numbers::pi / 180.0);
+  for (const VertexHandle v : hole.loop) {
     for (const FaceHandle f : mesh.vf_range(v)) {
       const auto i = static_cast<std::size_t>(f.idx());
       if (i >= seen.size()) seen.resize(i + 1, 0);
@@ -220,18 +240,32 @@ PatchShape decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions& o
       if (fn.norm() == 0) continue;
       max_dev = std::max(max_dev, std::acos(std::clamp(OpenMesh::dot(fn, n), -1.0, 1.0)));
     }
+    for (const HalfedgeHandle h : mesh.voh_range(v)) {
+      if (mesh.is_boundary(mesh.edge_handle(h))) continue;
+      const Vec3 a = mesh.calc_face_normal(mesh.face_handle(h));
+      const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
+      if (OpenMesh::dot(a, b) < cos_feature) ++sharp_edges;
+    }
+  }
   const double max_dev_deg = max_dev * 180.0 / std::numbers::pi;
   const double size = std::max(hole.perimeter / std::numbers::pi, 1e-300);
   const double planarity = hole.planarity / size;
   if (max_dev_deg <= options.flat_max_normal_deviation_deg && planarity <= 0.01) {
-    reason = fmt::format("planar surroundings (neighbour normals within {:.1f} deg of the hole plane)",
-                         max_dev_deg);
-    return PatchShape::Flat;
+    d.shape = PatchShape::Flat;
+    d.reason = fmt::format("planar surroundings (neighbour normals within {:.1f} deg of the hole plane)", max_dev_deg);
+    return d;
   }
-  reason = fmt::format("curved surroundings (neighbour normals up to {:.1f} deg from the hole plane, "
-                       "boundary off-plane {:.1f}% of its size)",
-                       max_dev_deg, 100 * planarity);
-  return PatchShape::Fair;
+  if (sharp_edges >= 2) {
+    d.shape = PatchShape::Flat;
+    d.feature = true;
+    d.reason = fmt::format("{} sharp edges (over {:.0f} deg) meet the boundary: follow the creases", sharp_edges,
+                           options.feature_angle_deg);
+    return d;
+  }
+  d.shape = PatchShape::Fair;
+  d.reason = fmt::format("smooth curved surroundings (neighbour normals up to {:.1f} deg from the hole plane)",
+                         max_dev_deg);
+  return d;
 }
 
 }  // namespace
@@ -262,7 +296,10 @@ const char* to_string(FillMethod method) {
   return "?";
 }
 
-HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options) {
+namespace {
+
+//! fill_hole with the mesh's longest edge cached across holes (0: not known yet).
+HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options, double& longest_edge) {
   const auto start = Clock::now();
   HoleFillReport report;
   report.hole_id = hole.id;
@@ -281,14 +318,21 @@ HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& option
     return finish();
   }
   const LoopData loop = gather_loop(mesh, hole);
+  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
+  ShapeDecision decision;
+  if (options.shape == PatchShape::Auto) {
+    decision = decide_shape(mesh, hole, options);
+  } else {
+    decision.shape = options.shape;
+    decision.reason = "requested";
+  }
+  const PatchShape shape = decision.shape;
+  const std::string& shape_reason = decision.reason;
   std::vector<FillMethod> methods;
-  if (hole.is_simple) methods = {FillMethod::Planar, FillMethod::MinimumWeight3d};
+  if (!options.methods.empty()) methods = options.methods;
+  else if (decision.feature) methods = {FillMethod::MinimumWeight3d, hole.is_simple ? FillMethod::Planar : FillMethod::Piecewise};
+  else if (hole.is_simple) methods = {FillMethod::Planar, FillMethod::MinimumWeight3d};
   else methods = {FillMethod::Piecewise, FillMethod::MinimumWeight3d};
-
-  std::string shape_reason;
-  PatchShape shape = options.shape;
-  if (shape == PatchShape::Auto) shape = decide_shape(mesh, hole, options, shape_reason);
-  else shape_reason = "requested";
 
   std::vector<std::string> failures;
   for (const FillMethod method : methods) {
@@ -297,7 +341,7 @@ HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& option
                                      hole.loop.size(), options.max_dp_vertices));
       continue;
     }
-    TopologyPatch patch = triangulate(method, mesh, hole, loop, options);
+    TopologyPatch patch = triangulate(method, mesh, hole, loop, options, longest_edge);
     if (!patch.ok) {
       failures.push_back(fmt::format("{}: {}", to_string(method), patch.failure));
       continue;
@@ -316,6 +360,7 @@ HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& option
     if (options.refine_iterations > 0) {
       RefinementOptions ro;
       ro.max_rounds = options.refine_iterations;
+      ro.keep_surface = shape == PatchShape::Flat;
       const RefinementReport rr = refine_patch(mesh, faces, vertices, ro);
       attempt.refinement_rounds = static_cast<std::size_t>(rr.rounds);
       attempt.splits = rr.splits;
@@ -337,13 +382,15 @@ HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& option
         }
       }
     }
-    if (options.check_intersections && !find_face_intersections(mesh, faces, 1).empty()) {
+    for (const FaceHandle f : faces)
+      for (const HalfedgeHandle h : mesh.fh_range(f)) longest_edge = std::max(longest_edge, mesh.calc_edge_length(h));
+    if (options.check_intersections && !find_face_intersections(mesh, faces, 1, longest_edge).empty()) {
       if (attempt.shape == PatchShape::Fair) {
         for (std::size_t i = 0; i < vertices.size(); ++i) mesh.set_point(vertices[i], flat_positions[i]);
         attempt.shape = PatchShape::Flat;
         attempt.warnings.push_back("the faired patch intersected the mesh; kept it flat");
       }
-      if (attempt.shape == PatchShape::Flat && !find_face_intersections(mesh, faces, 1).empty()) {
+      if (attempt.shape == PatchShape::Flat && !find_face_intersections(mesh, faces, 1, longest_edge).empty()) {
         remove_patch(mesh, faces, vertices);
         failures.push_back(fmt::format("{}: the new faces would intersect existing faces", to_string(method)));
         continue;
@@ -362,6 +409,13 @@ HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& option
   }
   report.reason = failures.empty() ? "no method applies" : fmt::format("{}", fmt::join(failures, "; "));
   return finish();
+}
+
+}  // namespace
+
+HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options) {
+  double longest_edge = 0;
+  return fill_hole_cached(mesh, hole, options, longest_edge);
 }
 
 std::size_t FillReport::filled() const {
@@ -399,6 +453,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
         selected.push_back(&found.holes[nearest->index]);
       break;
   }
+  double longest_edge = 0;
   for (std::size_t i = 0; i < selected.size(); ++i) {
     const Hole& hole = *selected[i];
     if (selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary) {
@@ -409,7 +464,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
       skipped.reason = fmt::format("{} boundary edges exceed the limit of {}", hole.loop.size(), selection.max_boundary);
       report.holes.push_back(std::move(skipped));
     } else {
-      report.holes.push_back(fill_hole(mesh, hole, options));
+      report.holes.push_back(fill_hole_cached(mesh, hole, options, longest_edge));
     }
     if (progress && !progress(i + 1, selected.size())) break;
   }

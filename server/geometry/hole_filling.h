@@ -47,9 +47,14 @@ struct FillOptions {
   FairingOptions fairing;
   std::size_t max_dp_vertices = 400;  //!< size limit of the O(n^3) 3D triangulation
   bool check_intersections = true;
+  //! Methods to try in order; empty = automatic (simple: planar then 3D; complex: piecewise
+  //! then 3D).
+  std::vector<FillMethod> methods;
   //! Auto shape: the patch stays flat when every triangle around the boundary is within this
   //! angle of the hole's plane and the boundary lies in that plane (within 1% of its size).
   double flat_max_normal_deviation_deg = 3.0;
+  //! Auto shape: an edge whose faces meet at more than this is a crease (CAD feature).
+  double feature_angle_deg = 35.0;
 };
 
 struct HoleFillReport {

@@ -1,5 +1,7 @@
 #include "server/geometry/mesh_intersections.h"
 
+#include <algorithm>
+#include <cmath>
 #include <unordered_set>
 
 #include "server/geometry/bvh.h"
@@ -19,9 +21,37 @@ void face_data(const Mesh& mesh, FaceHandle f, TrianglePoints& t, std::array<int
 
 }  // namespace
 
+double max_edge_length(const Mesh& mesh) {
+  double longest = 0;
+  for (const EdgeHandle e : mesh.edges()) longest = std::max(longest, mesh.calc_edge_sqr_length(e));
+  return std::sqrt(longest);
+}
+
+std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Box3& box, double longest_edge) {
+  Box3 grown = box;
+  grown.min().array() -= longest_edge;
+  grown.max().array() += longest_edge;
+  std::vector<FaceHandle> out;
+  std::vector<char> seen(mesh.n_faces(), 0);
+  for (const VertexHandle v : mesh.vertices()) {
+    const Vec3& p = mesh.point(v);
+    if (!grown.contains(Eigen::Vector3d(p[0], p[1], p[2]))) continue;
+    for (const FaceHandle f : mesh.vf_range(v)) {
+      char& s = seen[static_cast<std::size_t>(f.idx())];
+      if (s) continue;
+      s = 1;
+      TrianglePoints t;
+      std::array<int, 3> ids;
+      face_data(mesh, f, t, ids);
+      if (triangle_box(t).intersects(box)) out.push_back(f);
+    }
+  }
+  return out;
+}
+
 std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(const Mesh& mesh,
                                                                       std::span<const FaceHandle> faces,
-                                                                      std::size_t stop_after) {
+                                                                      std::size_t stop_after, double longest_edge) {
   std::vector<std::pair<FaceHandle, FaceHandle>> out;
   if (faces.empty()) return out;
   std::unordered_set<int> chosen;
@@ -36,17 +66,14 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(const Mes
   const double pad = 1e-9 * std::max(region.diagonal().norm(), 1e-300);
   region.min().array() -= pad;
   region.max().array() += pad;
-  // Candidates: every face whose box meets the region (one linear scan; cheaper than a
-  // whole-mesh tree for one patch).
-  std::vector<FaceHandle> candidates;
+  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
+  const std::vector<FaceHandle> candidates = faces_in_box(mesh, region, longest_edge);
   std::vector<TrianglePoints> triangles;
   std::vector<std::array<int, 3>> candidate_ids;
-  for (const FaceHandle f : mesh.faces()) {
+  for (const FaceHandle f : candidates) {
     TrianglePoints t;
     std::array<int, 3> ids;
     face_data(mesh, f, t, ids);
-    if (!triangle_box(t).intersects(region)) continue;
-    candidates.push_back(f);
     triangles.push_back(t);
     candidate_ids.push_back(ids);
   }

@@ -226,13 +226,17 @@ class PiecewiseFiller {
       std::size_t i, j;
     };
     std::vector<Candidate> candidates;
+    // Candidates: for each vertex its nearest loop vertices in 3D among those at least a
+    // tenth of the loop away (the nearest ones otherwise are always its loop neighbours,
+    // whose chords only shave off tiny ears).
+    const std::size_t min_gap = std::max<std::size_t>(2, n / 10);
     std::vector<std::pair<double, std::size_t>> nearest;
     for (std::size_t i = 0; i < n; ++i) {
       nearest.clear();
       const Vec3& pi = pool_[static_cast<std::size_t>(loop[i])];
       for (std::size_t j = 0; j < n; ++j) {
         const std::size_t gap = (j + n - i) % n;
-        if (gap < 2 || gap > n - 2) continue;
+        if (gap < min_gap || gap > n - min_gap) continue;
         nearest.emplace_back((pool_[static_cast<std::size_t>(loop[j])] - pi).sqrnorm(), j);
       }
       const std::size_t keep = std::min(opt_.candidates_per_vertex, nearest.size());
@@ -247,9 +251,16 @@ class PiecewiseFiller {
         candidates.push_back({len / shorter, i, j});
       }
     }
-    // Validity tests are costlier than the score: score first, test in order.
+    // The flatness penalty needs an eigen-solve per half: only for the best chords by length.
+    constexpr std::size_t kScored = 32;
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+      return a.cost < b.cost || (a.cost == b.cost && std::tie(a.i, a.j) < std::tie(b.i, b.j));
+    });
+    if (candidates.size() > kScored) candidates.resize(kScored);
+    std::vector<Vec3> h1, h2;
     for (Candidate& c : candidates) {
-      std::vector<Vec3> h1, h2;
+      h1.clear();
+      h2.clear();
       for (std::size_t k = c.i; k <= c.j; ++k) h1.push_back(pool_[static_cast<std::size_t>(loop[k])]);
       for (std::size_t k = c.j; k != c.i; k = (k + 1) % n) h2.push_back(pool_[static_cast<std::size_t>(loop[k])]);
       h2.push_back(pool_[static_cast<std::size_t>(loop[c.i])]);
@@ -271,12 +282,12 @@ class PiecewiseFiller {
       const Vec3& pb = pool_[static_cast<std::size_t>(b)];
       if (in_.chord_clearance && in_.chord_clearance(a, b, pa, pb) < 0.25 * in_.mean_edge_length) continue;
       if (!chosen) chosen = &c;
-      std::vector<int> h1(loop.begin() + static_cast<std::ptrdiff_t>(c.i), loop.begin() + static_cast<std::ptrdiff_t>(c.j) + 1);
-      std::vector<int> h2;
-      for (std::size_t k = c.j; k != c.i; k = (k + 1) % n) h2.push_back(loop[k]);
-      h2.push_back(a);
+      std::vector<int> half1(loop.begin() + static_cast<std::ptrdiff_t>(c.i), loop.begin() + static_cast<std::ptrdiff_t>(c.j) + 1);
+      std::vector<int> half2;
+      for (std::size_t k = c.j; k != c.i; k = (k + 1) % n) half2.push_back(loop[k]);
+      half2.push_back(a);
       ReferenceFrame f;
-      if (find_simple_frame(h1, f) && find_simple_frame(h2, f)) {
+      if (find_simple_frame(half1, f) && find_simple_frame(half2, f)) {
         chosen = &c;
         break;
       }

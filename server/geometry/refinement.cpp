@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace touchmend::geometry {
 namespace {
@@ -43,7 +44,7 @@ bool is_interior_patch_edge(const Mesh& mesh, EdgeHandle e, const PatchSet& patc
 }
 
 //! Flip edge e if the circumsphere test asks for it and the flip is admissible.
-bool relax_edge(Mesh& mesh, EdgeHandle e, const PatchSet& patch) {
+bool relax_edge(Mesh& mesh, EdgeHandle e, const PatchSet& patch, bool keep_surface) {
   if (!is_interior_patch_edge(mesh, e, patch)) return false;
   const HalfedgeHandle h0 = mesh.halfedge_handle(e, 0), h1 = mesh.halfedge_handle(e, 1);
   const VertexHandle vi = mesh.from_vertex_handle(h0), vj = mesh.to_vertex_handle(h0);
@@ -61,12 +62,17 @@ bool relax_edge(Mesh& mesh, EdgeHandle e, const PatchSet& patch) {
   const double scale = std::max({(pi - pj).sqrnorm(), (pk - pm).sqrnorm(), 1e-300});
   if (n1.norm() <= 1e-10 * scale || n2.norm() <= 1e-10 * scale) return false;
   if (OpenMesh::dot(n1, old_n) <= 0 || OpenMesh::dot(n2, old_n) <= 0) return false;
+  if (keep_surface) {
+    const Vec3 a = OpenMesh::cross(pj - pi, pk - pi).normalize_cond();
+    const Vec3 b = OpenMesh::cross(pi - pj, pm - pj).normalize_cond();
+    if (OpenMesh::dot(a, b) < std::cos(1.0 * std::numbers::pi / 180.0)) return false;
+  }
   mesh.flip(e);
   return true;
 }
 
 std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, const PatchSet& patch,
-                           int max_passes) {
+                           int max_passes, bool keep_surface) {
   std::size_t flips = 0;
   for (int pass = 0; pass < max_passes; ++pass) {
     std::size_t flips_this_pass = 0;
@@ -79,7 +85,7 @@ std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, con
       for (const EdgeHandle e : edges) {
         if (seen[static_cast<std::size_t>(e.idx())]) continue;
         seen[static_cast<std::size_t>(e.idx())] = 1;
-        if (relax_edge(mesh, e, patch)) ++flips_this_pass;
+        if (relax_edge(mesh, e, patch, keep_surface)) ++flips_this_pass;
       }
     }
     flips += flips_this_pass;
@@ -90,9 +96,10 @@ std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, con
 
 }  // namespace
 
-std::size_t relax_patch_edges(Mesh& mesh, const std::vector<FaceHandle>& patch_faces, int max_passes) {
+std::size_t relax_patch_edges(Mesh& mesh, const std::vector<FaceHandle>& patch_faces, int max_passes,
+                              bool keep_surface) {
   const PatchSet patch(patch_faces);
-  return relax_pass_all(mesh, patch_faces, patch, max_passes);
+  return relax_pass_all(mesh, patch_faces, patch, max_passes, keep_surface);
 }
 
 RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
@@ -156,13 +163,13 @@ RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
           patch_faces.push_back(nf);
         }
       for (const EdgeHandle e : old_edges)
-        if (relax_edge(mesh, e, patch)) ++report.flips;
+        if (relax_edge(mesh, e, patch, options.keep_surface)) ++report.flips;
       ++report.splits;
       split_any = true;
     }
     if (!split_any) break;
     ++report.rounds;
-    report.flips += relax_pass_all(mesh, patch_faces, patch, options.max_relax_passes);
+    report.flips += relax_pass_all(mesh, patch_faces, patch, options.max_relax_passes, options.keep_surface);
   }
   return report;
 }

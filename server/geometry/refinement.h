@@ -16,6 +16,9 @@ struct RefinementOptions {
   int max_rounds = 3;  //!< seed 000 §3.4.4: the user's preset, 1-5 "provides satisfied result"
   double density_factor = std::numbers::sqrt2;  //!< Liepa's α
   int max_relax_passes = 10;  //!< relaxing in 3D need not terminate: cap the passes
+  //! Only flip edges whose two triangles are coplanar (within 1°), so relaxing never changes
+  //! the surface: used when the patch stays flat (a flip across a fold would move it).
+  bool keep_surface = false;
 };
 
 struct RefinementReport {
@@ -33,6 +36,6 @@ RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
 //! Flips interior patch edges whose opposite vertex lies inside the smallest sphere through
 //! the other triangle (both ways), when the flip is admissible; returns the flip count.
 std::size_t relax_patch_edges(Mesh& mesh, const std::vector<FaceHandle>& patch_faces,
-                              int max_passes);
+                              int max_passes, bool keep_surface = false);
 
 }  // namespace touchmend::geometry
