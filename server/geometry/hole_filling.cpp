@@ -228,8 +228,10 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
   const Vec3 n = hole.reference_normal.norm() > 0 ? hole.reference_normal : hole.normal;
   double max_dev = 0;
   std::vector<char> seen;
-  std::size_t sharp_edges = 0;
-  const double cos_feature = std::cos(options.feature_angle_deg * std::numbers::pi / 180.0);
+  // Dihedral angles of the edges at the boundary vertices. A crease is an edge well above
+  // both the feature angle and the typical bending of this neighbourhood (3x the median), so
+  // that a coarse but smooth mesh (large dihedrals everywhere) is not taken for a CAD part.
+  std::vector<double> dihedrals;
   for (const VertexHandle v : hole.loop) {
     for (const FaceHandle f : mesh.vf_range(v)) {
       const auto i = static_cast<std::size_t>(f.idx());
@@ -244,8 +246,15 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
       if (mesh.is_boundary(mesh.edge_handle(h))) continue;
       const Vec3 a = mesh.calc_face_normal(mesh.face_handle(h));
       const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
-      if (OpenMesh::dot(a, b) < cos_feature) ++sharp_edges;
+      dihedrals.push_back(std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) * 180.0 / std::numbers::pi);
     }
+  }
+  std::size_t sharp_edges = 0;
+  if (!dihedrals.empty()) {
+    std::vector<double> sorted = dihedrals;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    const double threshold = std::max(options.feature_angle_deg, 3.0 * sorted[sorted.size() / 2]);
+    for (const double angle : dihedrals) sharp_edges += angle > threshold ? 1 : 0;
   }
   const double max_dev_deg = max_dev * 180.0 / std::numbers::pi;
   const double size = std::max(hole.perimeter / std::numbers::pi, 1e-300);

@@ -1,16 +1,20 @@
 #include "server/geometry/holes.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
+#include <numbers>
 #include <set>
 
 #include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
 
-HalfedgeHandle next_hole_halfedge(const Mesh& mesh, HalfedgeHandle incoming) {
-  // Rotate around the target vertex through the faces of the fan that starts at the face
-  // across `incoming`, until the fan ends at a boundary halfedge (ALGORITHMS.md §1.2).
+namespace {
+
+//! The outgoing boundary halfedge at the far end of the fan whose first face lies across
+//! \p incoming (rotating around its target vertex through faces only).
+HalfedgeHandle same_fan_end(const Mesh& mesh, HalfedgeHandle incoming) {
   const VertexHandle v = mesh.to_vertex_handle(incoming);
   HalfedgeHandle g = mesh.opposite_halfedge_handle(incoming);
   const std::size_t max_steps = 4 * mesh.valence(v) + 4;
@@ -19,6 +23,46 @@ HalfedgeHandle next_hole_halfedge(const Mesh& mesh, HalfedgeHandle incoming) {
     if (mesh.is_boundary(g)) return g;
   }
   return HalfedgeHandle();
+}
+
+}  // namespace
+
+HalfedgeHandle next_hole_halfedge(const Mesh& mesh, HalfedgeHandle incoming) {
+  // At a manifold boundary vertex the faces form one fan and the hole is the gap between
+  // its two ends: the successor is the far end of the fan across `incoming` (ALGORITHMS.md
+  // §1.2). Where holes touch at a vertex (seed 000 Fig. 3.5) the vertex has one fan per gap,
+  // and each gap is bounded by the ends of two *different* fans: following the same fan
+  // would jump into the other hole (a figure-8 loop), so the successor is taken from another
+  // fan: the only other one when there are two, else the first boundary edge clockwise
+  // from `incoming` around the vertex normal (the side the hole lies on).
+  const VertexHandle v = mesh.to_vertex_handle(incoming);
+  std::vector<HalfedgeHandle> outgoing;
+  for (const HalfedgeHandle h : mesh.voh_range(v))
+    if (mesh.is_boundary(h)) outgoing.push_back(h);
+  const HalfedgeHandle same = same_fan_end(mesh, incoming);
+  if (outgoing.size() <= 1) return same;
+  if (!same.is_valid()) return same;
+  if (outgoing.size() == 2) return outgoing[0] == same ? outgoing[1] : outgoing[0];
+  Vec3 normal(0, 0, 0);
+  for (const FaceHandle f : mesh.vf_range(v)) normal += mesh.calc_face_normal(f);
+  normal.normalize_cond();
+  const Vec3& pv = mesh.point(v);
+  auto tangent = [&](const Vec3& d) { return d - OpenMesh::dot(d, normal) * normal; };
+  const Vec3 d_in = tangent(mesh.point(mesh.from_vertex_handle(incoming)) - pv);
+  HalfedgeHandle best;
+  double best_angle = 1e300;
+  for (const HalfedgeHandle h : outgoing) {
+    if (h == same) continue;
+    const Vec3 d = tangent(mesh.point(mesh.to_vertex_handle(h)) - pv);
+    // Clockwise angle (seen from outside) from d_in to d, in (0, 2π].
+    double a = std::atan2(OpenMesh::dot(OpenMesh::cross(d, d_in), normal), OpenMesh::dot(d_in, d));
+    if (a <= 0) a += 2 * std::numbers::pi;
+    if (a < best_angle) {
+      best_angle = a;
+      best = h;
+    }
+  }
+  return best;
 }
 
 void compute_hole_properties(const Mesh& mesh, Hole& hole, bool compute_projectability) {
@@ -122,6 +166,17 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
       continue;
     }
     if (hole.loop.size() < 3) hole.unfillable_reason = "boundary loop with fewer than 3 edges";
+    {
+      // A loop through the same vertex twice (the outside of a bowtie, a hole pinched at a
+      // vertex) is not a disk: filling it would make a non-manifold vertex.
+      std::vector<int> ids;
+      for (const VertexHandle v : hole.loop) ids.push_back(v.idx());
+      std::sort(ids.begin(), ids.end());
+      const auto dup = std::adjacent_find(ids.begin(), ids.end());
+      if (dup != ids.end())
+        hole.unfillable_reason = "the boundary passes through vertex " + std::to_string(*dup) +
+                                 " twice (pinched hole): not a disk";
+    }
     result.holes.push_back(std::move(hole));
   }
   // Deterministic order by the smallest hole halfedge (u, v), then stable ids.

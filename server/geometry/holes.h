@@ -50,13 +50,14 @@ struct HoleSearchOptions {
 };
 
 //! Finds every boundary loop. A vertex shared by two holes (seed 000 Fig. 3.5, which the
-//! thesis leaves out) is handled by the same-fan rule: the successor of an incoming
-//! boundary halfedge is the outgoing boundary halfedge reached by rotating through the
-//! faces of the same fan (ALGORITHMS.md §1.2), never the kernel's arbitrary link.
+//! thesis leaves out) is resolved from the fans around it, never from the kernel's arbitrary
+//! boundary links: see next_hole_halfedge.
 HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options = {});
 
-//! The outgoing boundary halfedge that follows the boundary halfedge \p incoming at its
-//! target vertex within the same fan; invalid if the fan is corrupt.
+//! The outgoing boundary halfedge that follows the boundary halfedge \p incoming along its
+//! hole: at a manifold vertex the far end of the one fan; where holes touch, the end of
+//! another fan bounding the same gap (ALGORITHMS.md §1.2's same-fan rule alone would join the
+//! two holes into a figure 8). Invalid if the fan is corrupt.
 HalfedgeHandle next_hole_halfedge(const Mesh& mesh, HalfedgeHandle incoming);
 
 //! Index of the hole with \p id in \p holes, if any.

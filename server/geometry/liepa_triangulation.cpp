@@ -13,8 +13,11 @@ namespace {
 struct Weight {
   double angle = 0;  // largest dihedral deviation, radians
   double area = 0;
+  // Angles closer than kAngleTie are equal, so that coplanar candidates (whose angles differ
+  // only by rounding) are ranked by area, as the weight intends.
+  static constexpr double kAngleTie = 1e-9;
   bool operator<(const Weight& o) const {
-    if (angle != o.angle) return angle < o.angle;
+    if (std::abs(angle - o.angle) > kAngleTie) return angle < o.angle;
     return area < o.area;
   }
   Weight operator+(const Weight& o) const { return {std::max(angle, o.angle), area + o.area}; }
@@ -23,9 +26,9 @@ struct Weight {
 constexpr Weight kInvalid{std::numeric_limits<double>::infinity(),
                           std::numeric_limits<double>::infinity()};
 
+//! Angle between unit normals; atan2 keeps it accurate near 0, where acos loses half the digits.
 double angle_between(const Vec3& n1, const Vec3& n2) {
-  const double c = std::clamp(OpenMesh::dot(n1, n2), -1.0, 1.0);
-  return std::acos(c);
+  return std::atan2(OpenMesh::cross(n1, n2).norm(), OpenMesh::dot(n1, n2));
 }
 
 }  // namespace

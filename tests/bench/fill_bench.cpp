@@ -34,42 +34,6 @@ namespace geo = touchmend::geometry;
 
 namespace {
 
-struct AnchorRow {
-  double best_mean = -1;  // permille, best of the anchors in BASELINE.md
-  double cgal_fair_ms = -1;
-};
-
-//! (case, hole) -> anchors' numbers from BASELINE.md's per-hole table.
-std::map<std::pair<std::string, std::string>, AnchorRow> read_baseline(const std::string& path) {
-  std::map<std::pair<std::string, std::string>, AnchorRow> out;
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("| ", 0) != 0) continue;
-    std::vector<std::string> cells;
-    std::stringstream ss(line.substr(1));
-    std::string cell;
-    while (std::getline(ss, cell, '|')) {
-      cell.erase(0, cell.find_first_not_of(' '));
-      cell.erase(cell.find_last_not_of(' ') + 1);
-      cells.push_back(cell);
-    }
-    if (cells.size() < 20 || (cells[7].find("CGAL") == std::string::npos && cells[7].find("MeshLab") == std::string::npos))
-      continue;
-    AnchorRow& row = out[{cells[0], cells[1]}];
-    try {
-      const double mean = std::stod(cells[13]);
-      if (row.best_mean < 0 || mean < row.best_mean) row.best_mean = mean;
-    } catch (...) {
-    }
-    if (cells[7] == "CGAL refine+fair") try {
-        row.cgal_fair_ms = std::stod(cells[8]);
-      } catch (...) {
-      }
-  }
-  return out;
-}
-
 struct TruthHole {
   std::string label;      // case hole id
   geo::Vec3 anchor;       // position of one of its boundary vertices
@@ -128,7 +92,7 @@ int main(int argc, char** argv) {
   if (method == "planar") options.methods = {geo::FillMethod::Planar};
   if (method == "piecewise") options.methods = {geo::FillMethod::Piecewise};
   if (method == "dp") options.methods = {geo::FillMethod::MinimumWeight3d};
-  const auto baseline = read_baseline(tmd::testing::shared_data_dir() + "/cases/BASELINE.md");
+  const auto baseline = tmd::testing::read_baseline();
   bool cgal = false;
 #ifdef TOUCHMEND_HAVE_CGAL
   cgal = !no_cgal;

@@ -124,6 +124,44 @@ std::optional<std::uint32_t> matching_hole_id(const std::vector<geometry::Hole>&
   return std::nullopt;
 }
 
+std::map<std::pair<std::string, std::string>, AnchorNumbers> read_baseline() {
+  std::map<std::pair<std::string, std::string>, AnchorNumbers> out;
+  std::ifstream in(fs::path(shared_data_dir()) / "cases" / "BASELINE.md");
+  std::string line;
+  auto number = [](const std::string& cell, double& value) {
+    try {
+      value = std::stod(cell);
+      return true;
+    } catch (...) {
+      return false;
+    }
+  };
+  while (std::getline(in, line)) {
+    if (line.rfind("| ", 0) != 0) continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line.substr(1));
+    std::string cell;
+    while (std::getline(ss, cell, '|')) {
+      cell.erase(0, cell.find_first_not_of(' '));
+      cell.erase(cell.find_last_not_of(' ') + 1);
+      cells.push_back(cell);
+    }
+    // Per-hole rows: case | hole | kind | r | bnd | GT faces | crease | method | ms | new faces | H | H f->g | H g->f | mean ...
+    if (cells.size() < 20) continue;
+    const std::string& method = cells[7];
+    if (method.find("CGAL") == std::string::npos && method.find("MeshLab") == std::string::npos) continue;
+    AnchorNumbers& a = out[{cells[0], cells[1]}];
+    double mean = 0, hausdorff = 0, ms = 0;
+    if (number(cells[13], mean) && (a.best_mean < 0 || mean < a.best_mean)) a.best_mean = mean;
+    if (method == "CGAL refine+fair") {
+      if (number(cells[13], mean)) a.cgal_fair_mean = mean;
+      if (number(cells[10], hausdorff)) a.cgal_fair_hausdorff = hausdorff;
+      if (number(cells[8], ms)) a.cgal_fair_ms = ms;
+    }
+  }
+  return out;
+}
+
 HoleScore score_fill(const geometry::Mesh& mesh, const geometry::HoleFillReport& fill, const HoleCase& c,
                      const CaseHole& hole) {
   HoleScore s;

@@ -5,6 +5,7 @@
 //! ground truth) and per-hole fill scoring with the shared metrics module.
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -55,6 +56,18 @@ struct HoleScore {
   double hausdorff_permille = 0;  //!< / diagonal x 1000
   double mean_permille = 0;
 };
+
+//! The anchors' numbers for one hole from BASELINE.md's per-hole table (per mille of the
+//! diagonal; -1 when absent).
+struct AnchorNumbers {
+  double best_mean = -1;         //!< best mean distance over all anchors
+  double cgal_fair_mean = -1;
+  double cgal_fair_hausdorff = -1;
+  double cgal_fair_ms = -1;
+};
+
+//! (case, hole id as printed) -> anchors, from ../shared/data/cases/BASELINE.md.
+std::map<std::pair<std::string, std::string>, AnchorNumbers> read_baseline();
 
 HoleScore score_fill(const geometry::Mesh& mesh, const geometry::HoleFillReport& fill, const HoleCase& c,
                      const CaseHole& hole);

@@ -1,0 +1,184 @@
+// Runs the real `touchmend` binary: exit codes, messages, outputs, atomic writes.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "client/cli/commands.h"
+#include "server/geometry/holes.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_io.h"
+#include "tests/support/cases.h"
+
+namespace touchmend::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("touchmend_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    spot_ = testing::shared_data_dir() + "/cases/spot_sml/holed.off";
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  void write(const std::string& name, const std::string& bytes) const { std::ofstream(path(name), std::ios::binary) << bytes; }
+  static std::string slurp(const std::string& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+
+  CliRun run(const std::string& args) const {
+    const std::string out = path("stdout.txt"), err = path("stderr.txt");
+    const std::string cmd = std::string(TOUCHMEND_CLI_PATH) + " " + args + " >" + out + " 2>" + err + " </dev/null";
+    const int status = std::system(cmd.c_str());
+    CliRun r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+  }
+
+  fs::path dir_;
+  std::string spot_;
+};
+
+TEST_F(Cli, HelpAndUsageErrors) {
+  EXPECT_EQ(run("--help").code, 0);
+  const CliRun help = run("fill --help");
+  EXPECT_EQ(help.code, 0);
+  EXPECT_NE(help.out.find("--refine-iterations"), std::string::npos);
+  EXPECT_EQ(run("").code, kExitUsage);
+  EXPECT_EQ(run("frobnicate x.off").code, kExitUsage);
+  EXPECT_EQ(run("fill " + spot_).code, kExitUsage);  // no -o
+  const CliRun no_mode = run("fill " + spot_ + " -o " + path("o.off"));
+  EXPECT_EQ(no_mode.code, kExitUsage);
+  EXPECT_NE(no_mode.err.find("--all"), std::string::npos);
+  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --all --hole 3").code, kExitUsage);
+  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --all --refine-iterations 9").code, kExitUsage);
+  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --all --shape round").code, kExitUsage);
+  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --near 1,2").code, kExitUsage);
+  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --near 1,nan,2").code, kExitUsage);
+  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.xyz") + " --all").code, kExitUsage);
+  EXPECT_FALSE(fs::exists(path("o.off")));
+}
+
+TEST_F(Cli, BadInputIsExitCodeOneWithTheProblemNamed) {
+  write("empty.off", "");
+  write("nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  write("range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n");
+  write("mesh.txt", "hello");
+  std::string bad_stl(84, '\0');
+  bad_stl[80] = 7;  // claims 7 triangles, holds none
+  write("short.stl", bad_stl);
+  write("nofaces.obj", "v 0 0 0\n");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"info " + path("empty.off"), "empty"},
+      {"holes " + path("nan.obj"), "non-finite"},
+      {"info " + path("range.off"), "references vertex 5"},
+      {"info " + path("mesh.txt"), "unknown mesh file extension"},
+      {"info " + path("missing.off"), "no such file"},
+      {"info " + path("short.stl"), "declares 7 triangles"},
+      {"info " + path("nofaces.obj"), "no faces"},
+      {"fill " + path("nan.obj") + " -o " + path("out.off") + " --all", "non-finite"},
+  };
+  for (const auto& [args, expected] : cases) {
+    const CliRun r = run(args);
+    EXPECT_EQ(r.code, kExitBadInput) << args;
+    EXPECT_NE(r.err.find(expected), std::string::npos) << args << " -> " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(path("out.off")));
+}
+
+TEST_F(Cli, UnknownHoleIdIsBadInputAndWritesNothing) {
+  const CliRun r = run("fill " + spot_ + " -o " + path("o.off") + " --hole 999999");
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_NE(r.err.find("no hole with id 999999"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("o.off")));
+}
+
+TEST_F(Cli, InfoAndHolesReportTheMesh) {
+  const CliRun info = run("info " + spot_ + " --json");
+  ASSERT_EQ(info.code, 0) << info.err;
+  const auto j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j["vertices"], 2727);
+  EXPECT_EQ(j["faces"], 5364);
+  EXPECT_EQ(j["validation"]["boundary_loops"], 3);
+  EXPECT_TRUE(j["validation"]["clean"].get<bool>());
+  const CliRun holes = run("holes " + spot_ + " --json");
+  ASSERT_EQ(holes.code, 0);
+  const auto h = nlohmann::json::parse(holes.out);
+  ASSERT_EQ(h["holes"].size(), 3u);
+  std::size_t edges = 0;
+  for (const auto& hole : h["holes"]) edges += hole["boundary_edges"].get<std::size_t>();
+  EXPECT_EQ(edges, 92u);
+  const CliRun text = run("holes " + spot_);
+  EXPECT_EQ(text.code, 0);
+  EXPECT_NE(text.out.find("simple"), std::string::npos);
+}
+
+TEST_F(Cli, FillAllWritesAClosedMeshAtomically) {
+  write("out.off", "previous content");
+  const CliRun r = run("fill " + spot_ + " -o " + path("out.off") + " --all --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["filled"], 3);
+  EXPECT_EQ(j["left_open"], 0);
+  const auto read = geometry::read_mesh_file(path("out.off"));
+  ASSERT_TRUE(read.ok) << read.error;
+  const auto built = geometry::build_mesh(read.soup);
+  EXPECT_TRUE(built.report.is_clean());
+  EXPECT_EQ(built.report.boundary_edges, 0u);
+  // Existing vertices keep their exact coordinates.
+  const auto original = geometry::read_mesh_file(spot_);
+  for (std::size_t i = 0; i < original.soup.points.size(); ++i) ASSERT_EQ(read.soup.points[i], original.soup.points[i]);
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << "temporary file left behind";
+}
+
+TEST_F(Cli, FillOneHoleByIdOrByPointLeavesTheOthers) {
+  const CliRun holes = run("holes " + spot_ + " --json");
+  const auto h = nlohmann::json::parse(holes.out)["holes"];
+  const auto id = h[1]["id"].get<std::uint32_t>();
+  const CliRun by_id = run("fill " + spot_ + " -o " + path("one.ply") + " --hole " + std::to_string(id) + " --binary");
+  ASSERT_EQ(by_id.code, 0) << by_id.err;
+  EXPECT_NE(by_id.out.find("filled 1 of 1"), std::string::npos) << by_id.out;
+  const auto after = geometry::find_holes(geometry::build_mesh(geometry::read_mesh_file(path("one.ply")).soup).mesh);
+  EXPECT_EQ(after.holes.size(), 2u);
+  EXPECT_FALSE(geometry::find_hole_by_id(after.holes, id));
+  const auto c = h[2]["centroid"];
+  const std::string point = std::to_string(c[0].get<double>()) + "," + std::to_string(c[1].get<double>()) + "," +
+                            std::to_string(c[2].get<double>());
+  const CliRun near = run("fill " + spot_ + " -o " + path("near.stl") + " --near " + point + " --json");
+  ASSERT_EQ(near.code, 0) << near.err;
+  const auto nj = nlohmann::json::parse(near.out);
+  EXPECT_EQ(nj["holes"][0]["hole"], h[2]["id"]);
+}
+
+TEST_F(Cli, SizeLimitSkipsAndStrictReportsOpenHoles) {
+  const CliRun r = run("fill " + spot_ + " -o " + path("o.obj") + " --all --max-boundary 30 --json --strict");
+  ASSERT_EQ(r.code, 0) << r.err;  // skipped holes are not failures
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["filled"], 2);
+  EXPECT_EQ(j["skipped"], 1);
+}
+
+}  // namespace
+}  // namespace touchmend::cli

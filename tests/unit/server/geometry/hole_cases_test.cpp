@@ -1,0 +1,82 @@
+// Fills every hole of the shared cases (../shared/data/cases) and checks the result against the
+// ground truth and the invariants. Bounds (per mille of the diagonal, anchors from BASELINE.md):
+// every filled hole's mean distance to the removed surface within 1.6 x CGAL refine+fair's + 2,
+// its Hausdorff distance within 2 x CGAL's + 5 — loose enough for the auto shape's choices
+// (which beat CGAL on some holes and lose on others, see README), tight enough to catch a fill
+// that bulges or misses the surface. The two holes that no method can close without
+// intersecting the mesh (listed below) may stay open, but only with a reason.
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "server/geometry/hole_filling.h"
+#include "server/geometry/mesh_build.h"
+#include "tests/support/cases.h"
+#include "tests/support/invariants.h"
+
+namespace touchmend::geometry {
+namespace {
+
+// Holes where every triangulation we can build intersects the surrounding mesh (CGAL's
+// fills of these intersect it too: BASELINE.md lists 7 and 5 self-intersecting pairs).
+const std::set<std::pair<std::string, std::string>> kMayStayOpen = {{"couplingdown_sharp", "1"},
+                                                                    {"rocker-arm_xl", "0"}};
+
+class HoleCases : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(HoleCases, FillsCloseToGroundTruthWithoutBreakingTheMesh) {
+  std::string error;
+  const auto c = testing::load_case(GetParam(), error);
+  ASSERT_TRUE(c) << error;
+  const auto baseline = testing::read_baseline();
+  Mesh mesh = build_mesh(c->holed).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  const FillReport report = fill_holes(mesh, {});
+  EXPECT_EQ(report.holes.size(), holes.size());
+  const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
+  EXPECT_TRUE(problems.empty()) << problems;
+  if (c->holes.empty()) {  // real scan holes, no ground truth: all must close
+    for (const auto& r : report.holes) EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
+    return;
+  }
+  ASSERT_EQ(holes.size(), c->holes.size());
+  for (const auto& ch : c->holes) {
+    const auto id = testing::matching_hole_id(holes, ch);
+    ASSERT_TRUE(id) << "case hole " << ch.id << " not found";
+    const HoleFillReport* r = nullptr;
+    for (const auto& h : report.holes)
+      if (h.hole_id == *id) r = &h;
+    ASSERT_NE(r, nullptr);
+    const std::pair<std::string, std::string> key{c->name, std::to_string(ch.id)};
+    if (!r->filled) {
+      EXPECT_TRUE(kMayStayOpen.count(key)) << "hole " << ch.id << " left open: " << r->reason;
+      EXPECT_FALSE(r->reason.empty());
+      continue;
+    }
+    const testing::HoleScore score = testing::score_fill(mesh, *r, *c, ch);
+    const auto anchor = baseline.find(key);
+    ASSERT_NE(anchor, baseline.end()) << "BASELINE.md has no row for " << c->name << " hole " << ch.id;
+    EXPECT_LE(score.mean_permille, 1.6 * anchor->second.cgal_fair_mean + 2.0)
+        << c->name << " hole " << ch.id << " (" << to_string(r->method) << ", " << to_string(r->shape) << ")";
+    EXPECT_LE(score.hausdorff_permille, 2.0 * anchor->second.cgal_fair_hausdorff + 5.0)
+        << c->name << " hole " << ch.id << " (" << to_string(r->method) << ", " << to_string(r->shape) << ")";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(SharedData, HoleCases, ::testing::ValuesIn(testing::list_cases()),
+                         [](const auto& param_info) {
+                           std::string name = param_info.param;
+                           for (char& ch : name)
+                             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           return name;
+                         });
+
+TEST(HoleCasesData, SharedDataIsPresent) {
+  // The suite above would silently run zero cases without the data: make that a failure.
+  EXPECT_GE(testing::list_cases().size(), 10u) << "no cases under " << testing::shared_data_dir();
+}
+
+}  // namespace
+}  // namespace touchmend::geometry

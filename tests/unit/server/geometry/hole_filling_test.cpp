@@ -1,0 +1,310 @@
+#include "server/geometry/hole_filling.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <numbers>
+
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_intersections.h"
+#include "server/geometry/metrics.h"
+#include "tests/support/invariants.h"
+#include "tests/support/mesh_factory.h"
+
+namespace touchmend::geometry {
+namespace {
+
+using testing::check_fill_invariants;
+using testing::remove_faces;
+using testing::take_snapshot;
+
+//! Builds the mesh, fills the holes chosen by \p pick (all but the largest by default: the
+//! synthetic open meshes have an outer border that must stay), checks every invariant.
+struct FillRun {
+  Mesh mesh;
+  std::vector<Hole> holes;
+  std::vector<HoleFillReport> reports;
+};
+
+FillRun fill_and_check(const MeshSoup& soup, const FillOptions& options,
+                       const std::function<bool(const Hole&)>& pick) {
+  FillRun run{build_mesh(soup).mesh, {}, {}};
+  run.holes = find_holes(run.mesh).holes;
+  const testing::Snapshot before = take_snapshot(run.mesh);
+  for (const Hole& h : run.holes)
+    if (pick(h)) run.reports.push_back(fill_hole(run.mesh, h, options));
+  const std::string problems = check_fill_invariants(before, run.mesh, run.reports, run.holes);
+  EXPECT_TRUE(problems.empty()) << problems;
+  return run;
+}
+
+double min_new_angle(const FillRun& run) {
+  double a = 180;
+  for (const auto& r : run.reports)
+    a = std::min(a, triangle_quality(face_triangles(run.mesh, r.new_faces)).min_angle_deg);
+  return a;
+}
+
+
+TEST(FillHole, PlanarHoleInAGridStaysExactlyPlanar) {
+  const MeshSoup s = remove_faces(testing::grid(16, 16), [](const Vec3& c) {
+    return (c[0] - 8) * (c[0] - 8) + (c[1] - 8) * (c[1] - 8) < 16;
+  });
+  const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() < 64; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::Planar);
+  EXPECT_EQ(r.shape, PatchShape::Flat);
+  EXPECT_GT(r.vertices_added, 0u);
+  EXPECT_GT(r.angles_closed, 0u);
+  for (const auto v : r.new_vertices) EXPECT_EQ(run.mesh.point(v)[2], 0.0);
+  EXPECT_GT(min_new_angle(run), 15.0);
+}
+
+TEST(FillHole, HoleOnACylinderIsFairedBackOntoIt) {
+  const MeshSoup s = remove_faces(testing::cylinder(1.0, 4.0, 48, 25), [](const Vec3& c) {
+    return (c - Vec3(1, 0, 2)).norm() < 0.7;
+  });
+  const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() < 48; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Fair) << r.shape_reason;
+  double worst = 0;
+  for (const auto v : r.new_vertices) {
+    const Vec3 p = run.mesh.point(v);
+    worst = std::max(worst, std::abs(std::hypot(p[0], p[1]) - 1.0));
+  }
+  EXPECT_LT(worst, 0.02);
+  EXPECT_GT(min_new_angle(run), 10.0);
+}
+
+TEST(FillHole, HoleOnASphereIsFairedBackOntoIt) {
+  const MeshSoup s = remove_faces(testing::uv_sphere(1.0, 48, 32), [](const Vec3& c) { return c[0] > 0.8; });
+  const FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Fair);
+  double worst = 0;
+  for (const auto v : r.new_vertices) worst = std::max(worst, std::abs(run.mesh.point(v).norm() - 1.0));
+  EXPECT_LT(worst, 0.025);
+  // Flat would be far off: the fair decision matters.
+  FillOptions flat;
+  flat.shape = PatchShape::Flat;
+  const FillRun flat_run = fill_and_check(s, flat, [](const Hole&) { return true; });
+  double flat_worst = 0;
+  for (const auto v : flat_run.reports.at(0).new_vertices)
+    flat_worst = std::max(flat_worst, std::abs(flat_run.mesh.point(v).norm() - 1.0));
+  EXPECT_GT(flat_worst, 3 * worst);
+}
+
+TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
+  const MeshSoup s = remove_faces(testing::cube(8), [](const Vec3& c) { return (c - Vec3(8, 4, 8)).norm() < 2.2; });
+  const FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Flat) << r.shape_reason;
+  EXPECT_NE(r.shape_reason.find("sharp edges"), std::string::npos) << r.shape_reason;
+  // Every new vertex lies inside the cube, no farther than a cell from its true surface.
+  for (const auto v : r.new_vertices) {
+    const Vec3 p = run.mesh.point(v);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_GE(p[k], -1e-9);
+      EXPECT_LE(p[k], 8 + 1e-9);
+    }
+    EXPECT_LT(std::min(8 - p[0], 8 - p[2]), 1.0);
+  }
+}
+
+TEST(FillHole, HoleWrapping270DegreesAroundACylinderGoesPiecewise) {
+  const MeshSoup s = remove_faces(testing::cylinder(1.0, 4.0, 64, 33), [](const Vec3& c) {
+    const double a = std::atan2(c[1], c[0]);
+    return std::abs(a) < 0.75 * std::numbers::pi && c[2] > 1.6 && c[2] < 2.4;
+  });
+  FillRun run{build_mesh(s).mesh, {}, {}};
+  run.holes = find_holes(run.mesh).holes;
+  const Hole* wrap = nullptr;
+  for (const auto& h : run.holes)
+    if (h.loop.size() != 64) wrap = &h;
+  ASSERT_NE(wrap, nullptr);
+  EXPECT_FALSE(wrap->is_simple) << "a 270° window cannot project onto any plane";
+  const testing::Snapshot before = take_snapshot(run.mesh);
+  run.reports.push_back(fill_hole(run.mesh, *wrap, {}));
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::Piecewise);
+  EXPECT_GT(r.pieces, 1u);
+  const std::string problems = check_fill_invariants(before, run.mesh, run.reports, run.holes);
+  EXPECT_TRUE(problems.empty()) << problems;
+  double worst = 0;
+  for (const auto v : r.new_vertices) {
+    const Vec3 p = run.mesh.point(v);
+    worst = std::max(worst, std::abs(std::hypot(p[0], p[1]) - 1.0));
+  }
+  EXPECT_LT(worst, 0.1);
+}
+
+TEST(FillHole, SaddleHoleProjectsAndGoesPlanar) {
+  auto saddle = [](double x, double y) { return 0.04 * ((x - 8) * (x - 8) - (y - 8) * (y - 8)); };
+  const MeshSoup s = remove_faces(testing::grid(16, 16, saddle), [](const Vec3& c) {
+    return (c[0] - 8) * (c[0] - 8) + (c[1] - 8) * (c[1] - 8) < 16;
+  });
+  const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() < 64; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::Planar);
+  EXPECT_EQ(r.shape, PatchShape::Fair);
+  for (const auto v : r.new_vertices) {
+    const Vec3 p = run.mesh.point(v);
+    EXPECT_NEAR(p[2], saddle(p[0], p[1]), 0.05);
+  }
+}
+
+TEST(FillHole, TwoHolesSharingAVertexAreFilledOneAtATime) {
+  const MeshSoup s = remove_faces(testing::grid(8, 8), [](const Vec3& c) {
+    return (c[0] > 2 && c[0] < 4 && c[1] > 2 && c[1] < 4) || (c[0] > 4 && c[0] < 6 && c[1] > 4 && c[1] < 6);
+  });
+  Mesh mesh = build_mesh(s).mesh;
+  auto holes = find_holes(mesh).holes;
+  std::vector<const Hole*> inner;
+  for (const auto& h : holes)
+    if (h.loop.size() == 8) inner.push_back(&h);
+  ASSERT_EQ(inner.size(), 2u);
+  const std::uint32_t second_id = inner[1]->id;
+  const testing::Snapshot before = take_snapshot(mesh);
+  const HoleFillReport first = fill_hole(mesh, *inner[0], {});
+  ASSERT_TRUE(first.filled) << first.reason;
+  EXPECT_TRUE(check_fill_invariants(before, mesh, {first}, holes).empty());
+  // The other hole is untouched and keeps its id.
+  const auto after = find_holes(mesh).holes;
+  const auto again = find_hole_by_id(after, second_id);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(after[*again].loop.size(), 8u);
+  const HoleFillReport second = fill_hole(mesh, after[*again], {});
+  ASSERT_TRUE(second.filled) << second.reason;
+  EXPECT_EQ(find_holes(mesh).holes.size(), 1u);  // only the outer border is left
+  EXPECT_EQ(validate_mesh(mesh).non_manifold_vertices, 0u);
+  EXPECT_TRUE(find_face_intersections(mesh, second.new_faces).empty());
+}
+
+TEST(FillHole, ThreeEdgeHoleGetsOneTriangle) {
+  MeshSoup s = testing::cube(2);
+  s.triangles.erase(s.triangles.begin() + 5);
+  const FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  EXPECT_TRUE(run.reports[0].filled);
+  EXPECT_EQ(run.reports[0].faces_added, 1u);
+  EXPECT_EQ(run.reports[0].vertices_added, 0u);
+  EXPECT_TRUE(find_holes(run.mesh).holes.empty());
+}
+
+TEST(FillHole, ThousandVertexHole) {
+  const MeshSoup s = testing::annulus(1000, 100.0, 3, 0.7);
+  const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() == 1000 && h.perimeter < 630; /* the inner circle, not the border */ });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::Planar);
+  EXPECT_EQ(r.boundary_vertices, 1000u);
+  for (const auto v : r.new_vertices) EXPECT_EQ(run.mesh.point(v)[2], 0.0);
+}
+
+TEST(FillHole, HoleThatCanOnlyIntersectIsLeftOpenAndNothingChanges) {
+  // A grid with a hole and a separate triangle standing through the middle of the hole.
+  MeshSoup s = remove_faces(testing::grid(10, 10), [](const Vec3& c) {
+    return c[0] > 3 && c[0] < 7 && c[1] > 3 && c[1] < 7;
+  });
+  const auto base = static_cast<std::uint32_t>(s.points.size());
+  s.points.push_back({3.2, 5, -1});
+  s.points.push_back({6.8, 5, -1});
+  s.points.push_back({5, 5, 2});
+  s.triangles.push_back({base, base + 1, base + 2});
+  Mesh mesh = build_mesh(s).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const Hole* hole = nullptr;
+  for (const auto& h : holes)
+    if (h.loop.size() == 16) hole = &h;
+  ASSERT_NE(hole, nullptr);
+  const testing::Snapshot before = take_snapshot(mesh);
+  const std::size_t faces_before = mesh.n_faces();
+  const HoleFillReport r = fill_hole(mesh, *hole, {});
+  EXPECT_FALSE(r.filled);
+  EXPECT_NE(r.reason.find("intersect"), std::string::npos) << r.reason;
+  mesh.garbage_collection();
+  EXPECT_EQ(mesh.n_faces(), faces_before);
+  EXPECT_EQ(testing::boundary_halfedges(mesh), before.boundary);
+}
+
+TEST(FillHoles, SelectionByIdNearestAndSizeLimit) {
+  const MeshSoup s = remove_faces(testing::grid(20, 8), [](const Vec3& c) {
+    return (c[0] > 2 && c[0] < 5 && c[1] > 2 && c[1] < 5) || (c[0] > 10 && c[0] < 16 && c[1] > 2 && c[1] < 6);
+  });
+  {
+    Mesh m = build_mesh(s).mesh;
+    FillSelection near;
+    near.mode = FillSelection::Mode::Nearest;
+    near.point = Vec3(3.5, 3.5, 0.3);
+    const FillReport r = fill_holes(m, near);
+    ASSERT_EQ(r.holes.size(), 1u);
+    EXPECT_TRUE(r.holes[0].filled);
+    EXPECT_EQ(r.holes[0].boundary_vertices, 12u);
+  }
+  {
+    Mesh m = build_mesh(s).mesh;
+    const auto holes = find_holes(m).holes;
+    FillSelection ids;
+    ids.mode = FillSelection::Mode::Ids;
+    for (const auto& h : holes)
+      if (h.loop.size() == 20) ids.ids.push_back(h.id);
+    ids.ids.push_back(4242424);
+    const FillReport r = fill_holes(m, ids);
+    ASSERT_EQ(r.holes.size(), 1u);
+    EXPECT_EQ(r.holes[0].boundary_vertices, 20u);
+    EXPECT_EQ(r.unknown_ids, std::vector<std::uint32_t>{4242424});
+  }
+  {
+    Mesh m = build_mesh(s).mesh;
+    FillSelection all;
+    all.max_boundary = 16;
+    std::size_t progress_calls = 0;
+    const FillReport r = fill_holes(m, all, {}, [&](std::size_t, std::size_t) { return ++progress_calls > 0; });
+    EXPECT_EQ(r.holes_found, 3u);
+    EXPECT_EQ(r.filled(), 1u);  // the 12-edge hole; the 20-edge hole and the border are skipped
+    EXPECT_EQ(progress_calls, 3u);
+    std::size_t skipped = 0;
+    for (const auto& h : r.holes) skipped += h.skipped ? 1 : 0;
+    EXPECT_EQ(skipped, 2u);
+  }
+}
+
+TEST(FillHoles, MoreRefinementRoundsNeverMakeFewerTriangles) {
+  const MeshSoup s = remove_faces(testing::grid(30, 30), [](const Vec3& c) {
+    return (c[0] - 15) * (c[0] - 15) + (c[1] - 15) * (c[1] - 15) < 100;
+  });
+  std::size_t previous = 0;
+  for (int rounds : {1, 3, 5}) {
+    FillOptions o;
+    o.refine_iterations = rounds;
+    const FillRun run = fill_and_check(s, o, [](const Hole& h) { return h.loop.size() < 100; });
+    ASSERT_TRUE(run.reports.at(0).filled);
+    EXPECT_LE(run.reports[0].refinement_rounds, static_cast<std::size_t>(rounds));
+    EXPECT_GE(run.reports[0].faces_added, previous);
+    previous = run.reports[0].faces_added;
+  }
+}
+
+TEST(PatchShape, ParsesAndPrints) {
+  PatchShape s;
+  EXPECT_TRUE(parse_patch_shape("fair", s));
+  EXPECT_EQ(s, PatchShape::Fair);
+  EXPECT_STREQ(to_string(s), "fair");
+  EXPECT_FALSE(parse_patch_shape("round", s));
+}
+
+}  // namespace
+}  // namespace touchmend::geometry

@@ -1,0 +1,117 @@
+#include "server/geometry/holes.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <set>
+
+#include "server/geometry/mesh_build.h"
+#include "tests/support/mesh_factory.h"
+
+namespace touchmend::geometry {
+namespace {
+
+using testing::grid;
+using testing::remove_faces;
+
+//! A 10x10 grid with the cells of [3,5]x[3,5] removed: one 8-edge square hole.
+Mesh grid_with_square_hole() {
+  const MeshSoup s = remove_faces(grid(10, 10), [](const Vec3& c) { return c[0] > 3 && c[0] < 5 && c[1] > 3 && c[1] < 5; });
+  return build_mesh(s).mesh;
+}
+
+TEST(FindHoles, SquareHoleInAGrid) {
+  const Mesh m = grid_with_square_hole();
+  const auto found = find_holes(m);
+  ASSERT_EQ(found.holes.size(), 2u);  // the outer border and the hole
+  const Hole* hole = nullptr;
+  for (const auto& h : found.holes)
+    if (h.loop.size() == 8) hole = &h;
+  ASSERT_NE(hole, nullptr);
+  EXPECT_DOUBLE_EQ(hole->perimeter, 8.0);
+  EXPECT_NEAR(hole->area, 4.0, 1e-12);
+  EXPECT_NEAR(hole->normal[2], 1.0, 1e-12);
+  EXPECT_NEAR(hole->newell_normal[2], 1.0, 1e-12);  // loop runs counter-clockwise seen from +z
+  EXPECT_NEAR(hole->centroid[0], 4.0, 1e-12);
+  EXPECT_NEAR(hole->centroid[1], 4.0, 1e-12);
+  EXPECT_TRUE(hole->is_simple);
+  EXPECT_EQ(hole->reference_source, "boundary-triangles");
+  EXPECT_NEAR(hole->planarity, 0.0, 1e-12);
+  // The id is the smallest vertex index of the loop.
+  int smallest = 1 << 30;
+  for (const auto v : hole->loop) smallest = std::min(smallest, v.idx());
+  EXPECT_EQ(hole->id, static_cast<std::uint32_t>(smallest));
+  // Walking the loop follows boundary halfedges.
+  for (std::size_t i = 0; i < hole->loop.size(); ++i) {
+    EXPECT_TRUE(m.is_boundary(hole->halfedges[i]));
+    EXPECT_EQ(m.from_vertex_handle(hole->halfedges[i]), hole->loop[i]);
+    EXPECT_EQ(m.to_vertex_handle(hole->halfedges[i]), hole->loop[(i + 1) % hole->loop.size()]);
+  }
+}
+
+TEST(FindHoles, TwoHolesSharingAVertexAreSeparateLoops) {
+  // Cells (3,3) and (4,4) removed: the holes touch at vertex (4,4) only.
+  const MeshSoup s = remove_faces(grid(8, 8), [](const Vec3& c) {
+    return (c[0] > 3 && c[0] < 4 && c[1] > 3 && c[1] < 4) || (c[0] > 4 && c[0] < 5 && c[1] > 4 && c[1] < 5);
+  });
+  const BuildResult b = build_mesh(s);
+  const auto found = find_holes(b.mesh);
+  std::vector<const Hole*> inner;
+  for (const auto& h : found.holes)
+    if (h.loop.size() == 4) inner.push_back(&h);
+  ASSERT_EQ(inner.size(), 2u);
+  EXPECT_NE(inner[0]->id, inner[1]->id);
+  // They share exactly one vertex, and each loop visits it once.
+  std::set<int> a, c;
+  for (const auto v : inner[0]->loop) a.insert(v.idx());
+  for (const auto v : inner[1]->loop) c.insert(v.idx());
+  EXPECT_EQ(a.size(), 4u);
+  EXPECT_EQ(c.size(), 4u);
+  int shared = 0;
+  for (int v : a) shared += c.count(v) ? 1 : 0;
+  EXPECT_EQ(shared, 1);
+  EXPECT_NEAR(inner[0]->area, 1.0, 1e-12);
+  EXPECT_NEAR(inner[1]->area, 1.0, 1e-12);
+  EXPECT_EQ(found.corrupt_fans, 0u);
+}
+
+TEST(FindHoles, OpenCylinderEndsUseTheNewellNormal) {
+  const BuildResult b = build_mesh(testing::cylinder(1.0, 2.0, 24, 5));
+  const auto found = find_holes(b.mesh);
+  ASSERT_EQ(found.holes.size(), 2u);
+  for (const auto& h : found.holes) {
+    EXPECT_EQ(h.loop.size(), 24u);
+    EXPECT_TRUE(h.is_simple);
+    EXPECT_NE(h.reference_source, "boundary-triangles");  // the radial normals cancel out
+    EXPECT_NEAR(std::abs(h.reference_normal[2]), 1.0, 1e-9);
+  }
+}
+
+TEST(FindHoles, PinchedLoopIsReportedUnfillable) {
+  MeshSoup s;
+  s.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {-1, 0, 0}, {-1, -1, 0}};
+  s.triangles = {{0, 1, 2}, {0, 3, 4}};  // a bowtie: its outside passes vertex 0 twice
+  const auto holes = find_holes(build_mesh(s).mesh).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  EXPECT_EQ(holes[0].loop.size(), 6u);
+  EXPECT_NE(holes[0].unfillable_reason.find("twice"), std::string::npos);
+}
+
+TEST(FindHoles, ClosedMeshHasNoHoles) {
+  EXPECT_TRUE(find_holes(build_mesh(testing::uv_sphere(1, 12, 8)).mesh).holes.empty());
+}
+
+TEST(FindHoles, NearestHoleAndLookupById) {
+  const Mesh m = grid_with_square_hole();
+  const auto holes = find_holes(m).holes;
+  const auto near = find_nearest_hole(m, holes, Vec3(4.0, 4.2, 0.5));
+  ASSERT_TRUE(near);
+  EXPECT_EQ(holes[near->index].loop.size(), 8u);
+  EXPECT_NEAR(near->distance, std::sqrt(0.8 * 0.8 + 0.25), 1e-12);
+  EXPECT_TRUE(find_hole_by_id(holes, holes[near->index].id));
+  EXPECT_FALSE(find_hole_by_id(holes, 999999));
+}
+
+}  // namespace
+}  // namespace touchmend::geometry
