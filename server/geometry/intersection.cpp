@@ -73,24 +73,30 @@ double scale_of(const TrianglePoints& t1, const TrianglePoints& t2) {
 }  // namespace
 
 bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const TrianglePoints& t) {
-  const double l = std::max({(t[1] - t[0]).norm(), (t[2] - t[0]).norm(), (q - p).norm()});
-  const double eps = 1e-14 * l * l * l;
-  const int sp = sign(orient3d(t[0], t[1], t[2], p), eps);
-  const int sq = sign(orient3d(t[0], t[1], t[2], q), eps);
-  if (sp == sq && sp != 0) return false;
-  if (sp == 0 && sq == 0) {  // coplanar: segment vs triangle in 2D
-    const Vec3 nrm = OpenMesh::cross(t[1] - t[0], t[2] - t[0]);
-    const Flat f(nrm);
+  // Signed distances to the triangle's plane decide which side the ends are on; the crossing
+  // point is then tested against the edges. Working with distances (not raw orientation
+  // volumes) keeps the tolerance meaningful when the segment runs almost in the plane: a
+  // line lying in the plane would otherwise make every volume "zero" and look like a hit.
+  const Vec3 n = OpenMesh::cross(t[1] - t[0], t[2] - t[0]);
+  const double nn = n.norm();
+  const double l = std::max({(t[1] - t[0]).norm(), (t[2] - t[0]).norm(), (t[2] - t[1]).norm(), (q - p).norm()});
+  if (!(nn > 1e-14 * l * l)) return false;  // degenerate triangle
+  const Vec3 nh = n / nn;
+  const double eps = 1e-12 * l;
+  const double dp = OpenMesh::dot(nh, p - t[0]), dq = OpenMesh::dot(nh, q - t[0]);
+  if ((dp > eps && dq > eps) || (dp < -eps && dq < -eps)) return false;
+  const Flat f(nh);
+  if (std::abs(dp) <= eps && std::abs(dq) <= eps) {  // in the plane: 2D segment vs triangle
     for (int j = 0; j < 3; ++j)
       if (coplanar_segments_cross(f, p, q, t[j], t[(j + 1) % 3])) return true;
     return coplanar_point_in_triangle(f, p, t) || coplanar_point_in_triangle(f, q, t);
   }
-  const int s0 = sign(orient3d(p, q, t[0], t[1]), eps);
-  const int s1 = sign(orient3d(p, q, t[1], t[2]), eps);
-  const int s2 = sign(orient3d(p, q, t[2], t[0]), eps);
-  const bool all_nonneg = s0 >= 0 && s1 >= 0 && s2 >= 0;
-  const bool all_nonpos = s0 <= 0 && s1 <= 0 && s2 <= 0;
-  return all_nonneg || all_nonpos;
+  const Vec3 x = std::abs(dp) <= eps ? p : (std::abs(dq) <= eps ? q : p + (q - p) * (dp / (dp - dq)));
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 e = t[(i + 1) % 3] - t[i];
+    if (OpenMesh::dot(OpenMesh::cross(e, x - t[i]), nh) < -eps * e.norm()) return false;
+  }
+  return true;
 }
 
 bool triangles_intersect(const TrianglePoints& t1, const std::array<int, 3>& ids1,
