@@ -49,7 +49,9 @@ nlohmann::json bounds_json(const geometry::Mesh& mesh) {
     lo.minimize(p);
     hi.maximize(p);
   }
-  return {{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}, {"diagonal", (hi - lo).norm()}};
+  return {{"min", {lo[0], lo[1], lo[2]}},
+          {"max", {hi[0], hi[1], hi[2]}},
+          {"diagonal", (hi - lo).norm()}};
 }
 
 }  // namespace
@@ -89,15 +91,19 @@ int run_info(const InfoArgs& args, std::ostream& out, std::ostream& err) {
     return kExitOk;
   }
   const nlohmann::json b = bounds_json(mesh);
-  out << fmt::format("file                {} ({}{})\n", args.file, geometry::format_name(loaded->read.format),
+  out << fmt::format("file                {} ({}{})\n", args.file,
+                     geometry::format_name(loaded->read.format),
                      loaded->read.binary ? ", binary" : "");
-  out << fmt::format("mesh                {} vertices, {} faces, {} edges\n", mesh.n_vertices(), mesh.n_faces(),
-                     mesh.n_edges());
-  out << fmt::format("bounds              ({}, {}, {}) .. ({}, {}, {}), diagonal {}\n", b["min"][0].get<double>(),
-                     b["min"][1].get<double>(), b["min"][2].get<double>(), b["max"][0].get<double>(),
-                     b["max"][1].get<double>(), b["max"][2].get<double>(), b["diagonal"].get<double>());
-  if (loaded->read.polygons_triangulated) out << fmt::format("polygons split      {}\n", loaded->read.polygons_triangulated);
-  if (loaded->read.stl_corners_welded) out << fmt::format("STL corners welded  {}\n", loaded->read.stl_corners_welded);
+  out << fmt::format("mesh                {} vertices, {} faces, {} edges\n", mesh.n_vertices(),
+                     mesh.n_faces(), mesh.n_edges());
+  out << fmt::format(
+      "bounds              ({}, {}, {}) .. ({}, {}, {}), diagonal {}\n", b["min"][0].get<double>(),
+      b["min"][1].get<double>(), b["min"][2].get<double>(), b["max"][0].get<double>(),
+      b["max"][1].get<double>(), b["max"][2].get<double>(), b["diagonal"].get<double>());
+  if (loaded->read.polygons_triangulated)
+    out << fmt::format("polygons split      {}\n", loaded->read.polygons_triangulated);
+  if (loaded->read.stl_corners_welded)
+    out << fmt::format("STL corners welded  {}\n", loaded->read.stl_corners_welded);
   out << validation_text(report);
   return kExitOk;
 }
@@ -106,7 +112,8 @@ int run_holes(const HolesArgs& args, std::ostream& out, std::ostream& err) {
   const auto loaded = load(args.file, err);
   if (!loaded) return kExitBadInput;
   const geometry::HoleSearchResult found = geometry::find_holes(loaded->built.mesh);
-  if (found.corrupt_fans > 0) err << fmt::format("warning: {} boundary walks hit a corrupt vertex fan\n", found.corrupt_fans);
+  if (found.corrupt_fans > 0)
+    err << fmt::format("warning: {} boundary walks hit a corrupt vertex fan\n", found.corrupt_fans);
   if (args.json) {
     nlohmann::json holes = nlohmann::json::array();
     for (const auto& h : found.holes) holes.push_back(to_json(h));
@@ -120,7 +127,8 @@ int run_holes(const HolesArgs& args, std::ostream& out, std::ostream& err) {
 int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
   geometry::MeshFormat out_format;
   if (!geometry::format_from_path(args.output, out_format)) {
-    err << "error: " << args.output << ": unknown output extension (expected .stl, .obj, .off or .ply)\n";
+    err << "error: " << args.output
+        << ": unknown output extension (expected .stl, .obj, .off or .ply)\n";
     return kExitUsage;
   }
   const int modes = (args.all ? 1 : 0) + (args.hole_ids.empty() ? 0 : 1) + (args.near ? 1 : 0);
@@ -157,16 +165,19 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
       if (!geometry::find_hole_by_id(found.holes, id)) unknown.push_back(id);
     if (!unknown.empty()) {
       std::string known;
-      for (std::size_t i = 0; i < found.holes.size() && i < 20; ++i) known += (i ? ", " : "") + std::to_string(found.holes[i].id);
+      for (std::size_t i = 0; i < found.holes.size() && i < 20; ++i)
+        known += (i ? ", " : "") + std::to_string(found.holes[i].id);
       err << fmt::format("error: {}: no hole with id {} (the mesh has {} holes{}{})\n", args.file,
-                         fmt::join(unknown, ", "), found.holes.size(), found.holes.empty() ? "" : ": ", known);
+                         fmt::join(unknown, ", "), found.holes.size(),
+                         found.holes.empty() ? "" : ": ", known);
       return kExitBadInput;
     }
   }
   // Progress on stderr for multi-hole fills, so stdout stays the report.
   const geometry::FillReport report =
       geometry::fill_holes(mesh, selection, options, [&](std::size_t done, std::size_t total) {
-        if (!args.json && total > 1) err << fmt::format("[{}/{}] holes processed\r", done, total) << std::flush;
+        if (!args.json && total > 1)
+          err << fmt::format("[{}/{}] holes processed\r", done, total) << std::flush;
         return true;
       });
   if (!args.json && report.holes.size() > 1) err << "\n";
@@ -204,8 +215,9 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
         << "\n";
   } else {
     for (const auto& h : report.holes) out << fill_text(h);
-    out << fmt::format("filled {} of {} selected holes ({} left open, {} skipped; {} holes in the mesh)\n", filled,
-                       report.holes.size(), open, skipped, report.holes_found);
+    out << fmt::format(
+        "filled {} of {} selected holes ({} left open, {} skipped; {} holes in the mesh)\n", filled,
+        report.holes.size(), open, skipped, report.holes_found);
     out << fmt::format("wrote {} ({} vertices, {} faces)\n", args.output, written.vertices_written,
                        written.faces_written);
   }

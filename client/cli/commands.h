@@ -15,9 +15,9 @@ namespace touchmend::cli {
 
 enum ExitCode : int {
   kExitOk = 0,
-  kExitBadInput = 1,   //!< the input file (or a hole id) is wrong; the message names the problem
-  kExitUsage = 2,      //!< the command line is wrong
-  kExitLeftOpen = 3,   //!< --strict: some selected holes could not be filled
+  kExitBadInput = 1,  //!< the input file (or a hole id) is wrong; the message names the problem
+  kExitUsage = 2,     //!< the command line is wrong
+  kExitLeftOpen = 3,  //!< --strict: some selected holes could not be filled
 };
 
 struct InfoArgs {

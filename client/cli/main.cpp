@@ -15,8 +15,10 @@ int main(int argc, char** argv) {
 
   using namespace touchmend::cli;
   CLI::App app{
-      "touchmend repairs triangle meshes from reverse engineering: it finds the holes of a scanned mesh and\n"
-      "fills the ones you choose (seed 000 Algorithms I-III, piecewise filling of complex holes), leaving\n"
+      "touchmend repairs triangle meshes from reverse engineering: it finds the holes of a scanned "
+      "mesh and\n"
+      "fills the ones you choose (seed 000 Algorithms I-III, piecewise filling of complex holes), "
+      "leaving\n"
       "functional holes alone. Formats: STL (ASCII/binary), OBJ, OFF, PLY (ASCII/binary).\n\n"
       "Exit codes: 0 done, 1 bad input (the message names the problem), 2 usage,\n"
       "3 some selected holes were left open (only with fill --strict)."};
@@ -24,39 +26,55 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "touchmend 0.1.0");
 
   InfoArgs info;
-  auto* info_cmd = app.add_subcommand("info", "Counts, bounds and a validation report (non-manifold edges and\n"
-                                              "vertices, degenerate, duplicate, flipped and refused faces)");
+  auto* info_cmd =
+      app.add_subcommand("info",
+                         "Counts, bounds and a validation report (non-manifold edges and\n"
+                         "vertices, degenerate, duplicate, flipped and refused faces)");
   info_cmd->add_option("FILE", info.file, "Mesh file")->required();
   info_cmd->add_flag("--json", info.json, "Print JSON instead of text");
 
   HolesArgs holes;
-  auto* holes_cmd = app.add_subcommand("holes", "List the holes: stable id (smallest boundary vertex index),\n"
-                                                "boundary edges, perimeter, area, centroid, normal, simple/complex");
+  auto* holes_cmd =
+      app.add_subcommand("holes",
+                         "List the holes: stable id (smallest boundary vertex index),\n"
+                         "boundary edges, perimeter, area, centroid, normal, simple/complex");
   holes_cmd->add_option("FILE", holes.file, "Mesh file")->required();
-  holes_cmd->add_flag("--json", holes.json, "Print JSON instead of text (includes each hole's vertex loop)");
+  holes_cmd->add_flag("--json", holes.json,
+                      "Print JSON instead of text (includes each hole's vertex loop)");
 
   FillArgs fill;
   std::string near_text;
-  auto* fill_cmd = app.add_subcommand("fill", "Fill holes and write the repaired mesh (atomically: a temporary\n"
-                                              "file renamed over OUT, so OUT is never half-written)");
+  auto* fill_cmd =
+      app.add_subcommand("fill",
+                         "Fill holes and write the repaired mesh (atomically: a temporary\n"
+                         "file renamed over OUT, so OUT is never half-written)");
   fill_cmd->add_option("FILE", fill.file, "Mesh file with holes")->required();
-  fill_cmd->add_option("-o,--output", fill.output, "Where to write the repaired mesh (.stl .obj .off .ply)")->required();
+  fill_cmd
+      ->add_option("-o,--output", fill.output,
+                   "Where to write the repaired mesh (.stl .obj .off .ply)")
+      ->required();
   auto* all_opt = fill_cmd->add_flag("--all", fill.all, "Fill every hole (up to --max-boundary)");
-  auto* hole_opt = fill_cmd->add_option("--hole", fill.hole_ids, "Fill the holes with these ids (see `touchmend holes`)");
-  auto* near_opt = fill_cmd->add_option("--near", near_text, "Fill the hole whose boundary passes closest to X,Y,Z");
+  auto* hole_opt = fill_cmd->add_option("--hole", fill.hole_ids,
+                                        "Fill the holes with these ids (see `touchmend holes`)");
+  auto* near_opt = fill_cmd->add_option("--near", near_text,
+                                        "Fill the hole whose boundary passes closest to X,Y,Z");
   all_opt->excludes(hole_opt)->excludes(near_opt);
   hole_opt->excludes(near_opt);
-  fill_cmd->add_option("--max-boundary", fill.max_boundary,
-                       "Skip holes with more boundary edges than this (0 = no limit); large holes are\n"
-                       "often functional openings")
+  fill_cmd
+      ->add_option("--max-boundary", fill.max_boundary,
+                   "Skip holes with more boundary edges than this (0 = no limit); large holes are\n"
+                   "often functional openings")
       ->check(CLI::NonNegativeNumber);
-  fill_cmd->add_option("--refine-iterations", fill.refine_iterations,
-                       "Rounds of Liepa refinement (seed 000 §3.4.4 suggests 1-5)")
+  fill_cmd
+      ->add_option("--refine-iterations", fill.refine_iterations,
+                   "Rounds of Liepa refinement (seed 000 §3.4.4 suggests 1-5)")
       ->check(CLI::Range(1, 5))
       ->capture_default_str();
-  fill_cmd->add_option("--shape", fill.shape,
-                       "flat: keep the refined triangulation; fair: bi-Laplacian fairing that continues\n"
-                       "the surrounding surface; auto: flat where the surroundings are planar, else fair")
+  fill_cmd
+      ->add_option(
+          "--shape", fill.shape,
+          "flat: keep the refined triangulation; fair: bi-Laplacian fairing that continues\n"
+          "the surrounding surface; auto: flat where the surroundings are planar, else fair")
       ->check(CLI::IsMember({"flat", "fair", "auto"}))
       ->capture_default_str();
   fill_cmd->add_flag("--json", fill.json, "Print the fill report as JSON");
@@ -82,7 +100,8 @@ int main(int argc, char** argv) {
       if (!near_text.empty()) {
         touchmend::geometry::Vec3 p;
         if (!parse_point(near_text, p)) {
-          std::cerr << "error: --near expects three finite numbers X,Y,Z, got '" << near_text << "'\n";
+          std::cerr << "error: --near expects three finite numbers X,Y,Z, got '" << near_text
+                    << "'\n";
           return kExitUsage;
         }
         fill.near = p;

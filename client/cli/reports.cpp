@@ -5,19 +5,23 @@
 namespace touchmend::cli {
 namespace {
 
-nlohmann::json vec(const geometry::Vec3& v) { return nlohmann::json::array({v[0], v[1], v[2]}); }
+nlohmann::json vec(const geometry::Vec3& v) {
+  return nlohmann::json::array({v[0], v[1], v[2]});
+}
 
 }  // namespace
 
 nlohmann::json to_json(const geometry::ValidationReport& r) {
   nlohmann::json refused = nlohmann::json::object();
-  for (const auto reason : {geometry::RefusedFaceReason::RepeatedVertex, geometry::RefusedFaceReason::DuplicateFace,
-                            geometry::RefusedFaceReason::NonManifoldEdge, geometry::RefusedFaceReason::FlippedNeighbour,
-                            geometry::RefusedFaceReason::ComplexVertex})
+  for (const auto reason :
+       {geometry::RefusedFaceReason::RepeatedVertex, geometry::RefusedFaceReason::DuplicateFace,
+        geometry::RefusedFaceReason::NonManifoldEdge, geometry::RefusedFaceReason::FlippedNeighbour,
+        geometry::RefusedFaceReason::ComplexVertex})
     if (const std::size_t n = r.refused(reason)) refused[geometry::to_string(reason)] = n;
   nlohmann::json first = nlohmann::json::array();
   for (std::size_t i = 0; i < r.refused_faces.size() && i < 20; ++i)
-    first.push_back({{"face", r.refused_faces[i].face_index}, {"reason", geometry::to_string(r.refused_faces[i].reason)}});
+    first.push_back({{"face", r.refused_faces[i].face_index},
+                     {"reason", geometry::to_string(r.refused_faces[i].reason)}});
   return {{"input_vertices", r.input_vertices},
           {"input_faces", r.input_faces},
           {"unreferenced_vertices", r.unreferenced_vertices},
@@ -52,7 +56,9 @@ nlohmann::json to_json(const geometry::Hole& h) {
 }
 
 nlohmann::json to_json(const geometry::HoleFillReport& r) {
-  nlohmann::json j = {{"hole", r.hole_id}, {"boundary_edges", r.boundary_vertices}, {"filled", r.filled},
+  nlohmann::json j = {{"hole", r.hole_id},
+                      {"boundary_edges", r.boundary_vertices},
+                      {"filled", r.filled},
                       {"seconds", r.seconds}};
   if (r.skipped) {
     j["skipped"] = true;
@@ -80,31 +86,39 @@ nlohmann::json to_json(const geometry::HoleFillReport& r) {
 
 std::string validation_text(const geometry::ValidationReport& r) {
   std::string out;
-  out += fmt::format("vertices            {} ({} unreferenced)\n", r.input_vertices, r.unreferenced_vertices);
-  out += fmt::format("faces               {} ({} refused)\n", r.input_faces, r.refused_faces.size());
-  out += fmt::format("boundary            {} edges in {} loops\n", r.boundary_edges, r.boundary_loops);
+  out += fmt::format("vertices            {} ({} unreferenced)\n", r.input_vertices,
+                     r.unreferenced_vertices);
+  out +=
+      fmt::format("faces               {} ({} refused)\n", r.input_faces, r.refused_faces.size());
+  out +=
+      fmt::format("boundary            {} edges in {} loops\n", r.boundary_edges, r.boundary_loops);
   out += fmt::format("degenerate faces    {}\n", r.degenerate_faces);
   out += fmt::format("duplicate faces     {}\n", r.duplicate_faces);
   out += fmt::format("non-manifold edges  {}\n", r.non_manifold_edges);
   out += fmt::format("non-manifold verts  {}\n", r.non_manifold_vertices);
   out += fmt::format("flipped edges       {} (inconsistent orientation)\n", r.inconsistent_edges);
-  for (const auto reason : {geometry::RefusedFaceReason::RepeatedVertex, geometry::RefusedFaceReason::DuplicateFace,
-                            geometry::RefusedFaceReason::NonManifoldEdge, geometry::RefusedFaceReason::FlippedNeighbour,
-                            geometry::RefusedFaceReason::ComplexVertex})
-    if (const std::size_t n = r.refused(reason)) out += fmt::format("  refused: {} face(s): {}\n", n, geometry::to_string(reason));
-  out += r.is_clean() ? "status              clean\n" : "status              defects found (see above)\n";
+  for (const auto reason :
+       {geometry::RefusedFaceReason::RepeatedVertex, geometry::RefusedFaceReason::DuplicateFace,
+        geometry::RefusedFaceReason::NonManifoldEdge, geometry::RefusedFaceReason::FlippedNeighbour,
+        geometry::RefusedFaceReason::ComplexVertex})
+    if (const std::size_t n = r.refused(reason))
+      out += fmt::format("  refused: {} face(s): {}\n", n, geometry::to_string(reason));
+  out += r.is_clean() ? "status              clean\n"
+                      : "status              defects found (see above)\n";
   return out;
 }
 
 std::string holes_text(const std::vector<geometry::Hole>& holes) {
   if (holes.empty()) return "no holes: the mesh is closed\n";
-  std::string out = fmt::format("{:>8} {:>6} {:>12} {:>12} {:>8}  {:<30} {}\n", "id", "edges", "perimeter", "area", "kind",
-                                "centroid", "normal");
+  std::string out = fmt::format("{:>8} {:>6} {:>12} {:>12} {:>8}  {:<30} {}\n", "id", "edges",
+                                "perimeter", "area", "kind", "centroid", "normal");
   for (const geometry::Hole& h : holes) {
-    out += fmt::format("{:>8} {:>6} {:>12.6g} {:>12.6g} {:>8}  {:<30} ({:.3f}, {:.3f}, {:.3f}){}\n", h.id, h.loop.size(),
-                       h.perimeter, h.area, h.is_simple ? "simple" : "complex",
-                       fmt::format("({:.6g}, {:.6g}, {:.6g})", h.centroid[0], h.centroid[1], h.centroid[2]), h.normal[0],
-                       h.normal[1], h.normal[2], h.unfillable_reason.empty() ? "" : "  unfillable: " + h.unfillable_reason);
+    out += fmt::format(
+        "{:>8} {:>6} {:>12.6g} {:>12.6g} {:>8}  {:<30} ({:.3f}, {:.3f}, {:.3f}){}\n", h.id,
+        h.loop.size(), h.perimeter, h.area, h.is_simple ? "simple" : "complex",
+        fmt::format("({:.6g}, {:.6g}, {:.6g})", h.centroid[0], h.centroid[1], h.centroid[2]),
+        h.normal[0], h.normal[1], h.normal[2],
+        h.unfillable_reason.empty() ? "" : "  unfillable: " + h.unfillable_reason);
   }
   return out;
 }
@@ -113,10 +127,11 @@ std::string fill_text(const geometry::HoleFillReport& r) {
   if (r.skipped) return fmt::format("hole {:>6}: skipped ({})\n", r.hole_id, r.reason);
   if (!r.filled) return fmt::format("hole {:>6}: LEFT OPEN: {}\n", r.hole_id, r.reason);
   std::string out = fmt::format(
-      "hole {:>6}: filled, {} boundary edges, method {}, shape {} ({}), {} faces and {} vertices added, "
+      "hole {:>6}: filled, {} boundary edges, method {}, shape {} ({}), {} faces and {} vertices "
+      "added, "
       "{} refinement rounds, {:.2f} ms\n",
-      r.hole_id, r.boundary_vertices, geometry::to_string(r.method), geometry::to_string(r.shape), r.shape_reason,
-      r.faces_added, r.vertices_added, r.refinement_rounds, r.seconds * 1e3);
+      r.hole_id, r.boundary_vertices, geometry::to_string(r.method), geometry::to_string(r.shape),
+      r.shape_reason, r.faces_added, r.vertices_added, r.refinement_rounds, r.seconds * 1e3);
   for (const std::string& w : r.warnings) out += fmt::format("             warning: {}\n", w);
   return out;
 }

@@ -48,8 +48,9 @@ void TriangleBvh::build(std::uint32_t node_index, std::uint32_t begin, std::uint
   int axis;
   centroid_box.sizes().maxCoeff(&axis);
   const std::uint32_t mid = begin + (end - begin) / 2;
-  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
-                   [&](std::uint32_t a, std::uint32_t b) { return centroids[a][axis] < centroids[b][axis]; });
+  std::nth_element(
+      order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
+      [&](std::uint32_t a, std::uint32_t b) { return centroids[a][axis] < centroids[b][axis]; });
   const auto left = static_cast<std::uint32_t>(nodes_.size());
   nodes_.emplace_back();
   nodes_.emplace_back();

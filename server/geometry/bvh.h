@@ -70,6 +70,7 @@ class TriangleBvh {
 };
 
 //! The triangles of \p mesh's faces (non-deleted), in face order, and their face handles.
-std::vector<TrianglePoints> mesh_triangles(const Mesh& mesh, std::vector<FaceHandle>* faces = nullptr);
+std::vector<TrianglePoints> mesh_triangles(const Mesh& mesh,
+                                           std::vector<FaceHandle>* faces = nullptr);
 
 }  // namespace touchmend::geometry

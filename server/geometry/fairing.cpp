@@ -100,7 +100,8 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
   const Eigen::SparseMatrix<double> B = Lk.rightCols(n - n_free);
   Eigen::MatrixXd fixed(n - n_free, 3);
   for (int i = n_free; i < n; ++i)
-    for (int c = 0; c < 3; ++c) fixed(i - n_free, c) = mesh.point(vertices[static_cast<std::size_t>(i)])[c];
+    for (int c = 0; c < 3; ++c)
+      fixed(i - n_free, c) = mesh.point(vertices[static_cast<std::size_t>(i)])[c];
   const Eigen::MatrixXd rhs = -(B * fixed);
   Eigen::SparseLU<Eigen::SparseMatrix<double>> solver;
   Eigen::SparseMatrix<double> Ac = A;

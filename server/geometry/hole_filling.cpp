@@ -82,8 +82,8 @@ struct TopologyPatch {
   std::size_t angles_closed = 0;
 };
 
-TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole, const LoopData& loop,
-                          const FillOptions& options, double longest_edge) {
+TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
+                          const LoopData& loop, const FillOptions& options, double longest_edge) {
   TopologyPatch out;
   if (method == FillMethod::Planar) {
     if (!hole.is_simple) {
@@ -169,7 +169,8 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
   return out;
 }
 
-void remove_patch(Mesh& mesh, const std::vector<FaceHandle>& faces, const std::vector<VertexHandle>& vertices) {
+void remove_patch(Mesh& mesh, const std::vector<FaceHandle>& faces,
+                  const std::vector<VertexHandle>& vertices) {
   for (const FaceHandle f : faces)
     if (!mesh.status(f).deleted()) mesh.delete_face(f, true);
   for (const VertexHandle v : vertices)
@@ -178,8 +179,9 @@ void remove_patch(Mesh& mesh, const std::vector<FaceHandle>& faces, const std::v
 
 //! Adds the triangulation to the mesh. Faces are added in passes so that a face OpenMesh
 //! cannot link yet (its fan not contiguous) is retried once its neighbours exist.
-bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch, std::vector<FaceHandle>& faces,
-                  std::vector<VertexHandle>& vertices, std::string& why) {
+bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch,
+                  std::vector<FaceHandle>& faces, std::vector<VertexHandle>& vertices,
+                  std::string& why) {
   std::vector<VertexHandle> pool(hole.loop.begin(), hole.loop.end());
   for (const Vec3& p : patch.new_points) {
     const VertexHandle v = mesh.add_vertex(p);
@@ -190,14 +192,18 @@ bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch, std:
   while (!pending.empty()) {
     std::vector<std::array<int, 3>> retry;
     for (const auto& t : pending) {
-      const FaceHandle f = mesh.add_face(pool[static_cast<std::size_t>(t[0])], pool[static_cast<std::size_t>(t[1])],
-                                         pool[static_cast<std::size_t>(t[2])]);
-      if (f.is_valid()) faces.push_back(f);
-      else retry.push_back(t);
+      const FaceHandle f =
+          mesh.add_face(pool[static_cast<std::size_t>(t[0])], pool[static_cast<std::size_t>(t[1])],
+                        pool[static_cast<std::size_t>(t[2])]);
+      if (f.is_valid())
+        faces.push_back(f);
+      else
+        retry.push_back(t);
     }
     if (retry.size() == pending.size()) {
-      why = fmt::format("{} of {} triangles could not be linked into the mesh (non-manifold result)",
-                        retry.size(), patch.triangles.size());
+      why =
+          fmt::format("{} of {} triangles could not be linked into the mesh (non-manifold result)",
+                      retry.size(), patch.triangles.size());
       remove_patch(mesh, faces, vertices);
       faces.clear();
       vertices.clear();
@@ -246,13 +252,15 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
       if (mesh.is_boundary(mesh.edge_handle(h))) continue;
       const Vec3 a = mesh.calc_face_normal(mesh.face_handle(h));
       const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
-      dihedrals.push_back(std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) * 180.0 / std::numbers::pi);
+      dihedrals.push_back(std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) * 180.0 /
+                          std::numbers::pi);
     }
   }
   std::size_t sharp_edges = 0;
   if (!dihedrals.empty()) {
     std::vector<double> sorted = dihedrals;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    std::nth_element(sorted.begin(),
+                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
     const double threshold = std::max(options.feature_angle_deg, 3.0 * sorted[sorted.size() / 2]);
     for (const double angle : dihedrals) sharp_edges += angle > threshold ? 1 : 0;
   }
@@ -261,19 +269,21 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
   const double planarity = hole.planarity / size;
   if (max_dev_deg <= options.flat_max_normal_deviation_deg && planarity <= 0.01) {
     d.shape = PatchShape::Flat;
-    d.reason = fmt::format("planar surroundings (neighbour normals within {:.1f} deg of the hole plane)", max_dev_deg);
+    d.reason = fmt::format(
+        "planar surroundings (neighbour normals within {:.1f} deg of the hole plane)", max_dev_deg);
     return d;
   }
   if (sharp_edges >= 2) {
     d.shape = PatchShape::Flat;
     d.feature = true;
-    d.reason = fmt::format("{} sharp edges (over {:.0f} deg) meet the boundary: follow the creases", sharp_edges,
-                           options.feature_angle_deg);
+    d.reason = fmt::format("{} sharp edges (over {:.0f} deg) meet the boundary: follow the creases",
+                           sharp_edges, options.feature_angle_deg);
     return d;
   }
   d.shape = PatchShape::Fair;
-  d.reason = fmt::format("smooth curved surroundings (neighbour normals up to {:.1f} deg from the hole plane)",
-                         max_dev_deg);
+  d.reason = fmt::format(
+      "smooth curved surroundings (neighbour normals up to {:.1f} deg from the hole plane)",
+      max_dev_deg);
   return d;
 }
 
@@ -281,26 +291,36 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
 
 const char* to_string(PatchShape shape) {
   switch (shape) {
-    case PatchShape::Flat: return "flat";
-    case PatchShape::Fair: return "fair";
-    case PatchShape::Auto: return "auto";
+    case PatchShape::Flat:
+      return "flat";
+    case PatchShape::Fair:
+      return "fair";
+    case PatchShape::Auto:
+      return "auto";
   }
   return "?";
 }
 
 bool parse_patch_shape(std::string_view text, PatchShape& shape) {
-  if (text == "flat") shape = PatchShape::Flat;
-  else if (text == "fair") shape = PatchShape::Fair;
-  else if (text == "auto") shape = PatchShape::Auto;
-  else return false;
+  if (text == "flat")
+    shape = PatchShape::Flat;
+  else if (text == "fair")
+    shape = PatchShape::Fair;
+  else if (text == "auto")
+    shape = PatchShape::Auto;
+  else
+    return false;
   return true;
 }
 
 const char* to_string(FillMethod method) {
   switch (method) {
-    case FillMethod::Planar: return "planar";
-    case FillMethod::Piecewise: return "piecewise";
-    case FillMethod::MinimumWeight3d: return "minimum-weight-3d";
+    case FillMethod::Planar:
+      return "planar";
+    case FillMethod::Piecewise:
+      return "piecewise";
+    case FillMethod::MinimumWeight3d:
+      return "minimum-weight-3d";
   }
   return "?";
 }
@@ -308,7 +328,8 @@ const char* to_string(FillMethod method) {
 namespace {
 
 //! fill_hole with the mesh's longest edge cached across holes (0: not known yet).
-HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options, double& longest_edge) {
+HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
+                                double& longest_edge) {
   const auto start = Clock::now();
   HoleFillReport report;
   report.hole_id = hole.id;
@@ -338,16 +359,21 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   const PatchShape shape = decision.shape;
   const std::string& shape_reason = decision.reason;
   std::vector<FillMethod> methods;
-  if (!options.methods.empty()) methods = options.methods;
-  else if (decision.feature) methods = {FillMethod::MinimumWeight3d, hole.is_simple ? FillMethod::Planar : FillMethod::Piecewise};
-  else if (hole.is_simple) methods = {FillMethod::Planar, FillMethod::MinimumWeight3d};
-  else methods = {FillMethod::Piecewise, FillMethod::MinimumWeight3d};
+  if (!options.methods.empty())
+    methods = options.methods;
+  else if (decision.feature)
+    methods = {FillMethod::MinimumWeight3d,
+               hole.is_simple ? FillMethod::Planar : FillMethod::Piecewise};
+  else if (hole.is_simple)
+    methods = {FillMethod::Planar, FillMethod::MinimumWeight3d};
+  else
+    methods = {FillMethod::Piecewise, FillMethod::MinimumWeight3d};
 
   std::vector<std::string> failures;
   for (const FillMethod method : methods) {
     if (method == FillMethod::MinimumWeight3d && hole.loop.size() > options.max_dp_vertices) {
-      failures.push_back(fmt::format("{}: {} boundary vertices exceed its limit of {}", to_string(method),
-                                     hole.loop.size(), options.max_dp_vertices));
+      failures.push_back(fmt::format("{}: {} boundary vertices exceed its limit of {}",
+                                     to_string(method), hole.loop.size(), options.max_dp_vertices));
       continue;
     }
     TopologyPatch patch = triangulate(method, mesh, hole, loop, options, longest_edge);
@@ -392,16 +418,21 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       }
     }
     for (const FaceHandle f : faces)
-      for (const HalfedgeHandle h : mesh.fh_range(f)) longest_edge = std::max(longest_edge, mesh.calc_edge_length(h));
-    if (options.check_intersections && !find_face_intersections(mesh, faces, 1, longest_edge).empty()) {
+      for (const HalfedgeHandle h : mesh.fh_range(f))
+        longest_edge = std::max(longest_edge, mesh.calc_edge_length(h));
+    if (options.check_intersections &&
+        !find_face_intersections(mesh, faces, 1, longest_edge).empty()) {
       if (attempt.shape == PatchShape::Fair) {
-        for (std::size_t i = 0; i < vertices.size(); ++i) mesh.set_point(vertices[i], flat_positions[i]);
+        for (std::size_t i = 0; i < vertices.size(); ++i)
+          mesh.set_point(vertices[i], flat_positions[i]);
         attempt.shape = PatchShape::Flat;
         attempt.warnings.push_back("the faired patch intersected the mesh; kept it flat");
       }
-      if (attempt.shape == PatchShape::Flat && !find_face_intersections(mesh, faces, 1, longest_edge).empty()) {
+      if (attempt.shape == PatchShape::Flat &&
+          !find_face_intersections(mesh, faces, 1, longest_edge).empty()) {
         remove_patch(mesh, faces, vertices);
-        failures.push_back(fmt::format("{}: the new faces would intersect existing faces", to_string(method)));
+        failures.push_back(
+            fmt::format("{}: the new faces would intersect existing faces", to_string(method)));
         continue;
       }
     }
@@ -412,11 +443,13 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     attempt.new_faces = std::move(faces);
     attempt.new_vertices = std::move(vertices);
     if (!failures.empty())
-      attempt.warnings.push_back("earlier methods failed: " + fmt::format("{}", fmt::join(failures, "; ")));
+      attempt.warnings.push_back("earlier methods failed: " +
+                                 fmt::format("{}", fmt::join(failures, "; ")));
     report = std::move(attempt);
     return finish();
   }
-  report.reason = failures.empty() ? "no method applies" : fmt::format("{}", fmt::join(failures, "; "));
+  report.reason =
+      failures.empty() ? "no method applies" : fmt::format("{}", fmt::join(failures, "; "));
   return finish();
 }
 
@@ -428,12 +461,13 @@ HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& option
 }
 
 std::size_t FillReport::filled() const {
-  return static_cast<std::size_t>(std::count_if(holes.begin(), holes.end(), [](const HoleFillReport& h) { return h.filled; }));
+  return static_cast<std::size_t>(
+      std::count_if(holes.begin(), holes.end(), [](const HoleFillReport& h) { return h.filled; }));
 }
 
 std::size_t FillReport::left_open() const {
-  return static_cast<std::size_t>(
-      std::count_if(holes.begin(), holes.end(), [](const HoleFillReport& h) { return !h.filled && !h.skipped; }));
+  return static_cast<std::size_t>(std::count_if(
+      holes.begin(), holes.end(), [](const HoleFillReport& h) { return !h.filled && !h.skipped; }));
 }
 
 FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOptions& options,
@@ -470,7 +504,8 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
       skipped.hole_id = hole.id;
       skipped.boundary_vertices = hole.loop.size();
       skipped.skipped = true;
-      skipped.reason = fmt::format("{} boundary edges exceed the limit of {}", hole.loop.size(), selection.max_boundary);
+      skipped.reason = fmt::format("{} boundary edges exceed the limit of {}", hole.loop.size(),
+                                   selection.max_boundary);
       report.holes.push_back(std::move(skipped));
     } else {
       report.holes.push_back(fill_hole_cached(mesh, hole, options, longest_edge));

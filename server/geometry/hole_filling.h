@@ -64,7 +64,7 @@ struct HoleFillReport {
   bool skipped = false;  //!< not attempted (above the size limit)
   std::string reason;    //!< why the hole was left open or skipped
   FillMethod method = FillMethod::Planar;
-  std::string reference_plane;  //!< which normal made the hole simple ("none" if complex)
+  std::string reference_plane;          //!< which normal made the hole simple ("none" if complex)
   PatchShape shape = PatchShape::Flat;  //!< the shape actually applied
   std::string shape_reason;
   std::size_t pieces = 1;

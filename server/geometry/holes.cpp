@@ -127,7 +127,8 @@ void compute_hole_properties(const Mesh& mesh, Hole& hole, bool compute_projecta
     const char* source;
   };
   std::vector<Candidate> candidates;
-  if (sum_len >= 0.1 * static_cast<double>(boundary_faces)) candidates.push_back({hole.normal, "boundary-triangles"});
+  if (sum_len >= 0.1 * static_cast<double>(boundary_faces))
+    candidates.push_back({hole.normal, "boundary-triangles"});
   if (hole.area > 0) candidates.push_back({hole.newell_normal, "newell"});
   candidates.push_back({pca, "pca"});
   const double tolerance = 0.05 * hole.mean_edge_length;

@@ -32,8 +32,8 @@ struct Hole {
   //! True when the boundary projects onto a reference plane without self-intersection or
   //! fold-over (a "simple" hole, seed 001 §2.1); false for a "complex" hole.
   bool is_simple = false;
-  Vec3 reference_normal{0, 0, 1};   //!< the plane normal that made it simple (if simple)
-  std::string reference_source;     //!< "boundary-triangles", "newell", "pca" or "none"
+  Vec3 reference_normal{0, 0, 1};  //!< the plane normal that made it simple (if simple)
+  std::string reference_source;    //!< "boundary-triangles", "newell", "pca" or "none"
   //! Empty when the hole can be filled; otherwise why not (e.g. a non-manifold vertex).
   std::string unfillable_reason;
 

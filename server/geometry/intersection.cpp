@@ -10,7 +10,9 @@ double orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   return OpenMesh::dot(OpenMesh::cross(b - a, c - a), d - a);
 }
 
-int sign(double v, double eps) { return v > eps ? 1 : (v < -eps ? -1 : 0); }
+int sign(double v, double eps) {
+  return v > eps ? 1 : (v < -eps ? -1 : 0);
+}
 
 //! 2D tests for coplanar triangles, in the plane's dominant projection.
 struct Flat {
@@ -79,7 +81,8 @@ bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const TrianglePoi
   // line lying in the plane would otherwise make every volume "zero" and look like a hit.
   const Vec3 n = OpenMesh::cross(t[1] - t[0], t[2] - t[0]);
   const double nn = n.norm();
-  const double l = std::max({(t[1] - t[0]).norm(), (t[2] - t[0]).norm(), (t[2] - t[1]).norm(), (q - p).norm()});
+  const double l =
+      std::max({(t[1] - t[0]).norm(), (t[2] - t[0]).norm(), (t[2] - t[1]).norm(), (q - p).norm()});
   if (!(nn > 1e-14 * l * l)) return false;  // degenerate triangle
   const Vec3 nh = n / nn;
   const double eps = 1e-12 * l;
@@ -91,7 +94,8 @@ bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const TrianglePoi
       if (coplanar_segments_cross(f, p, q, t[j], t[(j + 1) % 3])) return true;
     return coplanar_point_in_triangle(f, p, t) || coplanar_point_in_triangle(f, q, t);
   }
-  const Vec3 x = std::abs(dp) <= eps ? p : (std::abs(dq) <= eps ? q : p + (q - p) * (dp / (dp - dq)));
+  const Vec3 x =
+      std::abs(dp) <= eps ? p : (std::abs(dq) <= eps ? q : p + (q - p) * (dp / (dp - dq)));
   for (int i = 0; i < 3; ++i) {
     const Vec3 e = t[(i + 1) % 3] - t[i];
     if (OpenMesh::dot(OpenMesh::cross(e, x - t[i]), nh) < -eps * e.norm()) return false;

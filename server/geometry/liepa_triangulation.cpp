@@ -33,7 +33,8 @@ double angle_between(const Vec3& n1, const Vec3& n2) {
 
 }  // namespace
 
-LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop, std::span<const Vec3> opposite,
+LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop,
+                                            std::span<const Vec3> opposite,
                                             std::span<const std::pair<int, int>> blocked,
                                             const LiepaTriangulationOptions& options) {
   LiepaTriangulation out;
@@ -43,9 +44,10 @@ LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop, std::spa
     return out;
   }
   if (static_cast<std::size_t>(n) > options.max_vertices) {
-    out.failure = fmt::format("{} boundary vertices exceed the {}-vertex limit of the 3D "
-                              "minimum-weight triangulation",
-                              n, options.max_vertices);
+    out.failure = fmt::format(
+        "{} boundary vertices exceed the {}-vertex limit of the 3D "
+        "minimum-weight triangulation",
+        n, options.max_vertices);
     return out;
   }
   std::unordered_set<long long> blocked_set;
@@ -76,7 +78,9 @@ LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop, std::spa
   const std::size_t N = static_cast<std::size_t>(n);
   std::vector<Weight> W(N * N);
   std::vector<int> lambda(N * N, -1);
-  auto at = [N](int i, int k) { return static_cast<std::size_t>(i) * N + static_cast<std::size_t>(k); };
+  auto at = [N](int i, int k) {
+    return static_cast<std::size_t>(i) * N + static_cast<std::size_t>(k);
+  };
   // Normal of the triangle chosen for the sub-polygon (i, k), needed as the neighbour across
   // edge (i, k) by the parent.
   std::vector<Vec3> chosen_normal(N * N, Vec3(0, 0, 0));
@@ -102,7 +106,8 @@ LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop, std::spa
         const Vec3& n_im = (m == i + 1) ? boundary_normal[i] : chosen_normal[at(i, m)];
         const Vec3& n_mk = (k == m + 1) ? boundary_normal[m] : chosen_normal[at(m, k)];
         double angle = std::max(angle_between(nrm, n_im), angle_between(nrm, n_mk));
-        if (i == 0 && k == n - 1) angle = std::max(angle, angle_between(nrm, boundary_normal[n - 1]));
+        if (i == 0 && k == n - 1)
+          angle = std::max(angle, angle_between(nrm, boundary_normal[n - 1]));
         const Weight w = left + right + Weight{angle, area};
         if (w < best) {
           best = w;

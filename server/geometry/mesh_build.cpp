@@ -36,19 +36,24 @@ struct DisjointSets {
 
 const char* to_string(RefusedFaceReason reason) {
   switch (reason) {
-    case RefusedFaceReason::RepeatedVertex: return "repeated vertex (degenerate face)";
-    case RefusedFaceReason::DuplicateFace: return "duplicate of an earlier face";
-    case RefusedFaceReason::NonManifoldEdge: return "edge already has two faces (non-manifold edge)";
+    case RefusedFaceReason::RepeatedVertex:
+      return "repeated vertex (degenerate face)";
+    case RefusedFaceReason::DuplicateFace:
+      return "duplicate of an earlier face";
+    case RefusedFaceReason::NonManifoldEdge:
+      return "edge already has two faces (non-manifold edge)";
     case RefusedFaceReason::FlippedNeighbour:
       return "edge already used in the same direction (inconsistent orientation)";
-    case RefusedFaceReason::ComplexVertex: return "cannot be linked into a vertex fan (complex vertex)";
+    case RefusedFaceReason::ComplexVertex:
+      return "cannot be linked into a vertex fan (complex vertex)";
   }
   return "?";
 }
 
 std::size_t ValidationReport::refused(RefusedFaceReason reason) const {
-  return static_cast<std::size_t>(std::count_if(refused_faces.begin(), refused_faces.end(),
-                                                [&](const RefusedFace& f) { return f.reason == reason; }));
+  return static_cast<std::size_t>(
+      std::count_if(refused_faces.begin(), refused_faces.end(),
+                    [&](const RefusedFace& f) { return f.reason == reason; }));
 }
 
 BuildResult build_mesh(const MeshSoup& soup) {
@@ -99,7 +104,8 @@ BuildResult build_mesh(const MeshSoup& soup) {
     if (n > 2) ++rep.non_manifold_edges;
   for (const auto& [key, n] : directed_use) {
     const auto u = static_cast<std::uint32_t>(key >> 32), v = static_cast<std::uint32_t>(key);
-    if (n > 1 && undirected_use[edge_key(std::min(u, v), std::max(u, v))] == 2) ++rep.inconsistent_edges;
+    if (n > 1 && undirected_use[edge_key(std::min(u, v), std::max(u, v))] == 2)
+      ++rep.inconsistent_edges;
   }
   rep.unreferenced_vertices =
       static_cast<std::size_t>(std::count(referenced.begin(), referenced.end(), 0));
@@ -115,7 +121,8 @@ BuildResult build_mesh(const MeshSoup& soup) {
     std::vector<std::uint32_t> fill(offset.begin(), offset.end() - 1);
     for (std::size_t f = 0; f < soup.triangles.size(); ++f)
       if (usable[f])
-        for (std::uint32_t v : soup.triangles[f]) incident[fill[v]++] = static_cast<std::uint32_t>(f);
+        for (std::uint32_t v : soup.triangles[f])
+          incident[fill[v]++] = static_cast<std::uint32_t>(f);
     for (std::size_t v = 0; v < soup.points.size(); ++v) {
       const std::uint32_t begin = offset[v], end = offset[v + 1];
       if (end - begin < 2) continue;

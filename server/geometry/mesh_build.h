@@ -17,11 +17,11 @@
 namespace touchmend::geometry {
 
 enum class RefusedFaceReason {
-  RepeatedVertex,      //!< a corner index appears twice (zero-area by construction)
-  DuplicateFace,       //!< same three vertices as an earlier face
-  NonManifoldEdge,     //!< one of its edges already has two faces
-  FlippedNeighbour,    //!< an edge is already used in the same direction (inconsistent orientation)
-  ComplexVertex,       //!< OpenMesh could not link the face into a vertex's fan
+  RepeatedVertex,    //!< a corner index appears twice (zero-area by construction)
+  DuplicateFace,     //!< same three vertices as an earlier face
+  NonManifoldEdge,   //!< one of its edges already has two faces
+  FlippedNeighbour,  //!< an edge is already used in the same direction (inconsistent orientation)
+  ComplexVertex,     //!< OpenMesh could not link the face into a vertex's fan
 };
 const char* to_string(RefusedFaceReason reason);
 
@@ -36,9 +36,9 @@ struct ValidationReport {
   std::size_t unreferenced_vertices = 0;
   std::size_t degenerate_faces = 0;  //!< repeated corner or (numerically) zero area
   std::size_t duplicate_faces = 0;
-  std::size_t non_manifold_edges = 0;    //!< undirected edges with more than two faces
-  std::size_t inconsistent_edges = 0;    //!< edges whose two faces run in the same direction
-  std::size_t non_manifold_vertices = 0; //!< vertices whose faces form more than one fan
+  std::size_t non_manifold_edges = 0;     //!< undirected edges with more than two faces
+  std::size_t inconsistent_edges = 0;     //!< edges whose two faces run in the same direction
+  std::size_t non_manifold_vertices = 0;  //!< vertices whose faces form more than one fan
   std::vector<RefusedFace> refused_faces;
   std::size_t boundary_edges = 0;  //!< in the built mesh
   std::size_t boundary_loops = 0;  //!< in the built mesh (see find_holes)

@@ -49,9 +49,9 @@ std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Box3& box, double l
   return out;
 }
 
-std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(const Mesh& mesh,
-                                                                      std::span<const FaceHandle> faces,
-                                                                      std::size_t stop_after, double longest_edge) {
+std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
+    double longest_edge) {
   std::vector<std::pair<FaceHandle, FaceHandle>> out;
   if (faces.empty()) return out;
   std::unordered_set<int> chosen;
@@ -99,7 +99,7 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(const Mes
 }
 
 std::vector<std::pair<FaceHandle, FaceHandle>> find_self_intersections(const Mesh& mesh,
-                                                                      std::size_t stop_after) {
+                                                                       std::size_t stop_after) {
   std::vector<FaceHandle> all(mesh.faces().begin(), mesh.faces().end());
   return find_face_intersections(mesh, all, stop_after);
 }

@@ -20,17 +20,19 @@ double max_edge_length(const Mesh& mesh);
 //! Every face whose bounding box meets \p box. Found through the vertices within
 //! \p longest_edge of the box (every point of a triangle lies within its longest edge of
 //! each corner), which is a scan of the contiguous point array instead of all faces.
-std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Eigen::AlignedBox3d& box, double longest_edge);
+std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Eigen::AlignedBox3d& box,
+                                     double longest_edge);
 
 //! Pairs of intersecting faces with at least one face in \p faces (each pair once). Faces
 //! sharing a vertex or an edge intersect only beyond what they share (see
 //! triangles_intersect). Stops after \p stop_after pairs (0: count all). \p longest_edge:
 //! max_edge_length(mesh), or <= 0 to compute it here.
 std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
-    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after = 0, double longest_edge = 0);
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after = 0,
+    double longest_edge = 0);
 
 //! Every intersecting pair of faces of the whole mesh.
 std::vector<std::pair<FaceHandle, FaceHandle>> find_self_intersections(const Mesh& mesh,
-                                                                      std::size_t stop_after = 0);
+                                                                       std::size_t stop_after = 0);
 
 }  // namespace touchmend::geometry

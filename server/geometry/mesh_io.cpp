@@ -1,8 +1,5 @@
 #include "server/geometry/mesh_io.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -11,12 +8,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <optional>
 #include <random>
 #include <sstream>
+#include <unistd.h>
 #include <unordered_map>
 
 #include <fmt/format.h>
@@ -32,8 +31,8 @@ class TextScanner {
 
   //! Next token on the current line, or empty when the line is exhausted.
   std::string_view token_on_line() {
-    while (pos_ < text_.size() && (text_[pos_] == ' ' || text_[pos_] == '\t' ||
-                                   text_[pos_] == '\r'))
+    while (pos_ < text_.size() &&
+           (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\r'))
       ++pos_;
     if (pos_ >= text_.size() || text_[pos_] == '\n') return {};
     const std::size_t start = pos_;
@@ -113,9 +112,10 @@ void add_polygon(const std::vector<std::uint32_t>& corners, ReadResult& r) {
 
 std::string check_finite(const Vec3& p, std::size_t index, std::size_t line) {
   if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) return {};
-  return fmt::format("vertex {} (line {}) has a non-finite coordinate ({} {} {}): NaN and "
-                     "infinity are not valid positions",
-                     index, line, p[0], p[1], p[2]);
+  return fmt::format(
+      "vertex {} (line {}) has a non-finite coordinate ({} {} {}): NaN and "
+      "infinity are not valid positions",
+      index, line, p[0], p[1], p[2]);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -126,8 +126,8 @@ ReadResult parse_off(std::string_view text, const ReadOptions& options) {
   if (magic.empty()) return fail("OFF: the file is empty");
   // Accept the common header variants (OFF, COFF, NOFF, CNOFF, ...), but only the 3D form.
   if (magic.size() < 3 || magic.substr(magic.size() - 3) != "OFF")
-    return fail(fmt::format("OFF: expected the keyword 'OFF' on line 1, found '{}'",
-                            printable(magic)));
+    return fail(
+        fmt::format("OFF: expected the keyword 'OFF' on line 1, found '{}'", printable(magic)));
   if (magic.find('4') != std::string_view::npos || magic.find('n') != std::string_view::npos)
     return fail("OFF: only 3D OFF is supported (no 4OFF/nOFF)");
   long long counts[3];
@@ -140,14 +140,16 @@ ReadResult parse_off(std::string_view text, const ReadOptions& options) {
   const auto n_vertices = static_cast<std::size_t>(counts[0]);
   const auto n_faces = static_cast<std::size_t>(counts[1]);
   if (n_vertices > options.max_elements || n_faces > options.max_elements)
-    return fail(fmt::format("OFF: the header declares {} vertices and {} faces, above the limit "
-                            "of {} elements",
-                            n_vertices, n_faces, options.max_elements));
+    return fail(
+        fmt::format("OFF: the header declares {} vertices and {} faces, above the limit "
+                    "of {} elements",
+                    n_vertices, n_faces, options.max_elements));
   // A declared count cannot exceed what the bytes could hold (at least 2 bytes per number).
   if (n_vertices > text.size() / 6 + 1 || n_faces > text.size() / 8 + 1)
-    return fail(fmt::format("OFF: the header declares {} vertices and {} faces, more than a "
-                            "{}-byte file can hold (truncated file?)",
-                            n_vertices, n_faces, text.size()));
+    return fail(
+        fmt::format("OFF: the header declares {} vertices and {} faces, more than a "
+                    "{}-byte file can hold (truncated file?)",
+                    n_vertices, n_faces, text.size()));
   ReadResult r;
   r.report.format = MeshFormat::Off;
   r.soup.points.reserve(n_vertices);
@@ -167,8 +169,8 @@ ReadResult parse_off(std::string_view text, const ReadOptions& options) {
         return fail(fmt::format("OFF: the file ends after {} of {} vertices (truncated file)", i,
                                 n_vertices));
       if (!parse_double(tok, p[k]))
-        return fail(fmt::format("OFF: line {}: vertex {} has an invalid coordinate '{}'",
-                                in.line(), i, printable(tok)));
+        return fail(fmt::format("OFF: line {}: vertex {} has an invalid coordinate '{}'", in.line(),
+                                i, printable(tok)));
     }
     if (auto e = check_finite(p, i, in.line()); !e.empty()) return fail("OFF: " + e);
     r.soup.points.push_back(p);
@@ -193,15 +195,16 @@ ReadResult parse_off(std::string_view text, const ReadOptions& options) {
       tok = in.token_on_line();
       long long idx = 0;
       if (tok.empty())
-        return fail(fmt::format("OFF: line {}: face {} declares {} corners but lists {}",
-                                in.line(), f, n, k));
+        return fail(fmt::format("OFF: line {}: face {} declares {} corners but lists {}", in.line(),
+                                f, n, k));
       if (!parse_int(tok, idx))
-        return fail(fmt::format("OFF: line {}: face {} has an invalid vertex index '{}'",
-                                in.line(), f, printable(tok)));
+        return fail(fmt::format("OFF: line {}: face {} has an invalid vertex index '{}'", in.line(),
+                                f, printable(tok)));
       if (idx < 0 || static_cast<std::size_t>(idx) >= n_vertices)
-        return fail(fmt::format("OFF: line {}: face {} references vertex {}, but the file has "
-                                "only {} vertices (0..{})",
-                                in.line(), f, idx, n_vertices, n_vertices == 0 ? 0 : n_vertices - 1));
+        return fail(
+            fmt::format("OFF: line {}: face {} references vertex {}, but the file has "
+                        "only {} vertices (0..{})",
+                        in.line(), f, idx, n_vertices, n_vertices == 0 ? 0 : n_vertices - 1));
       corners.push_back(static_cast<std::uint32_t>(idx));
     }
     add_polygon(corners, r);
@@ -266,9 +269,10 @@ ReadResult parse_obj(std::string_view text, const ReadOptions& options) {
     corners.clear();
     for (long long idx : face.idx) {
       if (idx < 1 || static_cast<std::size_t>(idx) > r.soup.points.size())
-        return fail(fmt::format("OBJ: line {}: face references vertex {}, but the file has only "
-                                "{} vertices (1..{})",
-                                face.line, idx, r.soup.points.size(), r.soup.points.size()));
+        return fail(
+            fmt::format("OBJ: line {}: face references vertex {}, but the file has only "
+                        "{} vertices (1..{})",
+                        face.line, idx, r.soup.points.size(), r.soup.points.size()));
       corners.push_back(static_cast<std::uint32_t>(idx - 1));
     }
     add_polygon(corners, r);
@@ -284,11 +288,11 @@ enum class PlyType { Int8, Uint8, Int16, Uint16, Int32, Uint32, Float32, Float64
 
 bool ply_type(std::string_view name, PlyType& t) {
   static constexpr std::pair<std::string_view, PlyType> kTypes[] = {
-      {"char", PlyType::Int8},     {"int8", PlyType::Int8},       {"uchar", PlyType::Uint8},
-      {"uint8", PlyType::Uint8},   {"short", PlyType::Int16},     {"int16", PlyType::Int16},
-      {"ushort", PlyType::Uint16}, {"uint16", PlyType::Uint16},   {"int", PlyType::Int32},
-      {"int32", PlyType::Int32},   {"uint", PlyType::Uint32},     {"uint32", PlyType::Uint32},
-      {"float", PlyType::Float32}, {"float32", PlyType::Float32}, {"double", PlyType::Float64},
+      {"char", PlyType::Int8},      {"int8", PlyType::Int8},       {"uchar", PlyType::Uint8},
+      {"uint8", PlyType::Uint8},    {"short", PlyType::Int16},     {"int16", PlyType::Int16},
+      {"ushort", PlyType::Uint16},  {"uint16", PlyType::Uint16},   {"int", PlyType::Int32},
+      {"int32", PlyType::Int32},    {"uint", PlyType::Uint32},     {"uint32", PlyType::Uint32},
+      {"float", PlyType::Float32},  {"float32", PlyType::Float32}, {"double", PlyType::Float64},
       {"float64", PlyType::Float64}};
   for (const auto& [n, type] : kTypes)
     if (n == name) {
@@ -345,23 +349,39 @@ class PlyBody {
     std::array<unsigned char, 8> b{};
     std::memcpy(b.data(), body_.data() + pos_, n);
     pos_ += n;
-    if (big_endian_ != (std::endian::native == std::endian::big)) std::reverse(b.begin(), b.begin() + n);
+    if (big_endian_ != (std::endian::native == std::endian::big))
+      std::reverse(b.begin(), b.begin() + n);
     switch (t) {
-      case PlyType::Int8: value = static_cast<std::int8_t>(b[0]); break;
-      case PlyType::Uint8: value = b[0]; break;
-      case PlyType::Int16: value = load<std::int16_t>(b); break;
-      case PlyType::Uint16: value = load<std::uint16_t>(b); break;
-      case PlyType::Int32: value = load<std::int32_t>(b); break;
-      case PlyType::Uint32: value = load<std::uint32_t>(b); break;
-      case PlyType::Float32: value = load<float>(b); break;
-      case PlyType::Float64: value = load<double>(b); break;
+      case PlyType::Int8:
+        value = static_cast<std::int8_t>(b[0]);
+        break;
+      case PlyType::Uint8:
+        value = b[0];
+        break;
+      case PlyType::Int16:
+        value = load<std::int16_t>(b);
+        break;
+      case PlyType::Uint16:
+        value = load<std::uint16_t>(b);
+        break;
+      case PlyType::Int32:
+        value = load<std::int32_t>(b);
+        break;
+      case PlyType::Uint32:
+        value = load<std::uint32_t>(b);
+        break;
+      case PlyType::Float32:
+        value = load<float>(b);
+        break;
+      case PlyType::Float64:
+        value = load<double>(b);
+        break;
     }
     return true;
   }
 
   std::string where() const {
-    return ascii_ ? fmt::format("body line {}", text_.line())
-                  : fmt::format("body byte {}", pos_);
+    return ascii_ ? fmt::format("body line {}", text_.line()) : fmt::format("body byte {}", pos_);
   }
 
  private:
@@ -411,16 +431,15 @@ ReadResult parse_ply(std::string_view bytes, const ReadOptions& options) {
       elements.push_back(std::move(e));
     } else if (key == "property") {
       if (elements.empty())
-        return fail(fmt::format("PLY: header line {}: property before any element",
-                                header.line()));
+        return fail(fmt::format("PLY: header line {}: property before any element", header.line()));
       PlyProperty p;
       std::string_view t = header.token_on_line();
       if (t == "list") {
         p.is_list = true;
         if (!ply_type(header.token_on_line(), p.count_type) ||
             !ply_type(header.token_on_line(), p.type))
-          return fail(fmt::format("PLY: header line {}: unknown list property type",
-                                  header.line()));
+          return fail(
+              fmt::format("PLY: header line {}: unknown list property type", header.line()));
       } else if (!ply_type(t, p.type)) {
         return fail(fmt::format("PLY: header line {}: unknown property type '{}'", header.line(),
                                 printable(t)));
@@ -467,11 +486,13 @@ ReadResult parse_ply(std::string_view bytes, const ReadOptions& options) {
       return fail("PLY: faces come before vertices; this reader needs vertices first");
     if (!ascii) {  // a binary body must hold at least the fixed-size part of every entry
       std::size_t fixed = 0;
-      for (const PlyProperty& p : e.properties) fixed += ply_size(p.is_list ? p.count_type : p.type);
+      for (const PlyProperty& p : e.properties)
+        fixed += ply_size(p.is_list ? p.count_type : p.type);
       if (fixed != 0 && e.count > (bytes.size() - body_start) / fixed + 1)
-        return fail(fmt::format("PLY: element '{}' declares {} entries, more than the {}-byte "
-                                "body can hold (truncated file?)",
-                                e.name, e.count, bytes.size() - body_start));
+        return fail(
+            fmt::format("PLY: element '{}' declares {} entries, more than the {}-byte "
+                        "body can hold (truncated file?)",
+                        e.name, e.count, bytes.size() - body_start));
     }
     if (is_vertex) r.soup.points.reserve(e.count);
     for (std::size_t i = 0; i < e.count; ++i) {
@@ -482,9 +503,10 @@ ReadResult parse_ply(std::string_view bytes, const ReadOptions& options) {
         double v = 0;
         if (!prop.is_list) {
           if (!body.read(prop.type, v))
-            return fail(fmt::format("PLY: {} entry {}: missing or invalid '{}' value ({}; "
-                                    "truncated file?)",
-                                    e.name, i, prop.name, body.where()));
+            return fail(
+                fmt::format("PLY: {} entry {}: missing or invalid '{}' value ({}; "
+                            "truncated file?)",
+                            e.name, i, prop.name, body.where()));
           if (static_cast<int>(k) == ix) p[0] = v;
           if (static_cast<int>(k) == iy) p[1] = v;
           if (static_cast<int>(k) == iz) p[2] = v;
@@ -493,17 +515,18 @@ ReadResult parse_ply(std::string_view bytes, const ReadOptions& options) {
         double count = 0;
         if (!body.read(prop.count_type, count) || count < 0 || count > 1'000'000 ||
             count != std::floor(count))
-          return fail(fmt::format("PLY: {} entry {}: invalid list length ({})", e.name, i,
-                                  body.where()));
+          return fail(
+              fmt::format("PLY: {} entry {}: invalid list length ({})", e.name, i, body.where()));
         for (int c = 0; c < static_cast<int>(count); ++c) {
           if (!body.read(prop.type, v))
             return fail(fmt::format("PLY: {} entry {}: list ends early ({}; truncated file?)",
                                     e.name, i, body.where()));
           if (static_cast<int>(k) == iface) {
             if (v < 0 || v != std::floor(v) || v >= static_cast<double>(r.soup.points.size()))
-              return fail(fmt::format("PLY: face {} references vertex {}, but the file has only "
-                                      "{} vertices",
-                                      i, v, r.soup.points.size()));
+              return fail(
+                  fmt::format("PLY: face {} references vertex {}, but the file has only "
+                              "{} vertices",
+                              i, v, r.soup.points.size()));
             corners.push_back(static_cast<std::uint32_t>(v));
           }
         }
@@ -597,26 +620,26 @@ ReadResult parse_stl_ascii(std::string_view text, const ReadOptions& options) {
   for (std::string_view tok = in.token(); !tok.empty(); tok = in.token()) {
     if (tok == "facet") {
       if (n != 0)
-        return fail(fmt::format("STL: line {}: facet starts before the previous one had 3 "
-                                "vertices",
-                                in.line()));
+        return fail(
+            fmt::format("STL: line {}: facet starts before the previous one had 3 "
+                        "vertices",
+                        in.line()));
     } else if (tok == "vertex") {
       if (n == 3)
         return fail(fmt::format("STL: line {}: a facet has more than 3 vertices", in.line()));
       for (int k = 0; k < 3; ++k) {
         const std::string_view v = in.token();
         if (!parse_double(v, corners[n][k]))
-          return fail(fmt::format("STL: line {}: invalid vertex coordinate '{}'", in.line(),
-                                  printable(v)));
+          return fail(
+              fmt::format("STL: line {}: invalid vertex coordinate '{}'", in.line(), printable(v)));
       }
-      if (auto e = check_finite(corners[n], 3 * r.soup.triangles.size() + n, in.line());
-          !e.empty())
+      if (auto e = check_finite(corners[n], 3 * r.soup.triangles.size() + n, in.line()); !e.empty())
         return fail("STL: " + e);
       ++n;
     } else if (tok == "endfacet") {
       if (n != 3)
-        return fail(fmt::format("STL: line {}: facet ends with {} vertices instead of 3",
-                                in.line(), n));
+        return fail(
+            fmt::format("STL: line {}: facet ends with {} vertices instead of 3", in.line(), n));
       if (r.soup.triangles.size() >= options.max_elements)
         return fail(fmt::format("STL: more than {} facets", options.max_elements));
       add_stl_triangle(corners, options, index, r);
@@ -636,8 +659,8 @@ ReadResult parse_stl(std::string_view bytes, const ReadOptions& options) {
     std::memcpy(&count, bytes.data() + 80, 4);
     if (std::size_t{84} + std::size_t{50} * count == bytes.size()) {
       if (count > options.max_elements)
-        return fail(fmt::format("STL: {} triangles, above the limit of {}", count,
-                                options.max_elements));
+        return fail(
+            fmt::format("STL: {} triangles, above the limit of {}", count, options.max_elements));
       return parse_stl_binary(bytes, count, options);
     }
   }
@@ -649,14 +672,16 @@ ReadResult parse_stl(std::string_view bytes, const ReadOptions& options) {
                                std::string_view::npos;
   if (looks_ascii) return parse_stl_ascii(bytes, options);
   if (bytes.size() < 84)
-    return fail(fmt::format("STL: {} bytes is too short for a binary STL (84-byte header) and "
-                            "it is not ASCII STL",
-                            bytes.size()));
+    return fail(
+        fmt::format("STL: {} bytes is too short for a binary STL (84-byte header) and "
+                    "it is not ASCII STL",
+                    bytes.size()));
   std::uint32_t count = 0;
   std::memcpy(&count, bytes.data() + 80, 4);
-  return fail(fmt::format("STL: binary header declares {} triangles ({} bytes), but the file has "
-                          "{} bytes (truncated or wrong triangle count)",
-                          count, std::size_t{84} + std::size_t{50} * count, bytes.size()));
+  return fail(
+      fmt::format("STL: binary header declares {} triangles ({} bytes), but the file has "
+                  "{} bytes (truncated or wrong triangle count)",
+                  count, std::size_t{84} + std::size_t{50} * count, bytes.size()));
 }
 
 // ---------------------------------------------------------------------------------------
@@ -680,20 +705,29 @@ bool format_from_path(const std::string& path, MeshFormat& format) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  if (ext == ".off") format = MeshFormat::Off;
-  else if (ext == ".obj") format = MeshFormat::Obj;
-  else if (ext == ".ply") format = MeshFormat::Ply;
-  else if (ext == ".stl") format = MeshFormat::Stl;
-  else return false;
+  if (ext == ".off")
+    format = MeshFormat::Off;
+  else if (ext == ".obj")
+    format = MeshFormat::Obj;
+  else if (ext == ".ply")
+    format = MeshFormat::Ply;
+  else if (ext == ".stl")
+    format = MeshFormat::Stl;
+  else
+    return false;
   return true;
 }
 
 const char* format_name(MeshFormat format) {
   switch (format) {
-    case MeshFormat::Off: return "OFF";
-    case MeshFormat::Obj: return "OBJ";
-    case MeshFormat::Ply: return "PLY";
-    case MeshFormat::Stl: return "STL";
+    case MeshFormat::Off:
+      return "OFF";
+    case MeshFormat::Obj:
+      return "OBJ";
+    case MeshFormat::Ply:
+      return "PLY";
+    case MeshFormat::Stl:
+      return "STL";
   }
   return "?";
 }
@@ -701,10 +735,18 @@ const char* format_name(MeshFormat format) {
 ReadResult parse_mesh(std::string_view bytes, MeshFormat format, const ReadOptions& options) {
   ReadResult r;
   switch (format) {
-    case MeshFormat::Off: r = parse_off(bytes, options); break;
-    case MeshFormat::Obj: r = parse_obj(bytes, options); break;
-    case MeshFormat::Ply: r = parse_ply(bytes, options); break;
-    case MeshFormat::Stl: r = parse_stl(bytes, options); break;
+    case MeshFormat::Off:
+      r = parse_off(bytes, options);
+      break;
+    case MeshFormat::Obj:
+      r = parse_obj(bytes, options);
+      break;
+    case MeshFormat::Ply:
+      r = parse_ply(bytes, options);
+      break;
+    case MeshFormat::Stl:
+      r = parse_stl(bytes, options);
+      break;
   }
   if (r.ok && r.soup.points.size() > std::numeric_limits<std::uint32_t>::max() / 2)
     return fail("too many vertices");
@@ -714,12 +756,11 @@ ReadResult parse_mesh(std::string_view bytes, MeshFormat format, const ReadOptio
 ReadResult read_mesh_file(const std::string& path, const ReadOptions& options) {
   MeshFormat format;
   if (!format_from_path(path, format))
-    return fail(fmt::format("{}: unknown mesh file extension (expected .stl, .obj, .off or .ply)",
-                            path));
+    return fail(
+        fmt::format("{}: unknown mesh file extension (expected .stl, .obj, .off or .ply)", path));
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
-  if (ec || !std::filesystem::exists(status))
-    return fail(fmt::format("{}: no such file", path));
+  if (ec || !std::filesystem::exists(status)) return fail(fmt::format("{}: no such file", path));
   if (!std::filesystem::is_regular_file(status))
     return fail(fmt::format("{}: not a regular file", path));
   const auto size = std::filesystem::file_size(path, ec);
@@ -785,7 +826,8 @@ WriteResult serialize_mesh(const Mesh& mesh, MeshFormat format, const WriteOptio
         add_point(mesh.point(v));
         out += '\n';
       }
-      for (const Triangle& t : faces) out += fmt::format("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+      for (const Triangle& t : faces)
+        out += fmt::format("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
       break;
     case MeshFormat::Ply:
       out += fmt::format(
@@ -865,12 +907,13 @@ WriteResult serialize_mesh(const Mesh& mesh, MeshFormat format, const WriteOptio
   return w;
 }
 
-WriteResult write_mesh_file(const Mesh& mesh, const std::string& path, const WriteOptions& options) {
+WriteResult write_mesh_file(const Mesh& mesh, const std::string& path,
+                            const WriteOptions& options) {
   WriteResult w;
   MeshFormat format;
   if (!format_from_path(path, format)) {
-    w.error = fmt::format("{}: unknown mesh file extension (expected .stl, .obj, .off or .ply)",
-                          path);
+    w.error =
+        fmt::format("{}: unknown mesh file extension (expected .stl, .obj, .off or .ply)", path);
     return w;
   }
   std::string bytes;
@@ -910,8 +953,8 @@ WriteResult write_mesh_file(const Mesh& mesh, const std::string& path, const Wri
     const int e = errno;
     ::unlink(tmp.c_str());
     w.ok = false;
-    w.error = fmt::format("{}: cannot rename the temporary file into place: {}", path,
-                          std::strerror(e));
+    w.error =
+        fmt::format("{}: cannot rename the temporary file into place: {}", path, std::strerror(e));
     return w;
   }
   // Make the rename itself durable.

@@ -31,9 +31,9 @@ bool format_from_path(const std::string& path, MeshFormat& format);
 const char* format_name(MeshFormat format);
 
 struct ReadOptions {
-  bool weld_stl_vertices = true;                 //!< merge STL corners with identical coordinates
+  bool weld_stl_vertices = true;  //!< merge STL corners with identical coordinates
   std::size_t max_file_bytes = std::size_t{4} << 30;  //!< refuse larger files (clear error)
-  std::size_t max_elements = 100'000'000;        //!< refuse declared vertex/face counts above this
+  std::size_t max_elements = 100'000'000;  //!< refuse declared vertex/face counts above this
 };
 
 struct ReadReport {

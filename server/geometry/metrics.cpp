@@ -19,7 +19,8 @@ OneSided one_sided(std::span<const TrianglePoints> from, const TriangleBvh& to, 
   OneSided r;
   double weight_sum = 0, normal_weight = 0;
   for (const TrianglePoints& t : from) {
-    const double longest = std::max({(t[1] - t[0]).norm(), (t[2] - t[1]).norm(), (t[0] - t[2]).norm()});
+    const double longest =
+        std::max({(t[1] - t[0]).norm(), (t[2] - t[1]).norm(), (t[0] - t[2]).norm()});
     const int k = std::clamp(static_cast<int>(std::ceil(longest / spacing)), 1, 400);
     const Vec3 nrm = OpenMesh::cross(t[1] - t[0], t[2] - t[0]);
     const double area = 0.5 * nrm.norm();
@@ -28,7 +29,8 @@ OneSided one_sided(std::span<const TrianglePoints> from, const TriangleBvh& to, 
     const double w = area / samples;
     for (int i = 0; i <= k; ++i)
       for (int j = 0; j <= k - i; ++j) {
-        const Vec3 p = t[0] + (t[1] - t[0]) * (static_cast<double>(i) / k) + (t[2] - t[0]) * (static_cast<double>(j) / k);
+        const Vec3 p = t[0] + (t[1] - t[0]) * (static_cast<double>(i) / k) +
+                       (t[2] - t[0]) * (static_cast<double>(j) / k);
         const TriangleBvh::Closest c = to.closest_point(p);
         const double d = std::sqrt(c.distance2);
         r.max = std::max(r.max, d);
@@ -51,8 +53,8 @@ OneSided one_sided(std::span<const TrianglePoints> from, const TriangleBvh& to, 
 
 }  // namespace
 
-SurfaceDistance surface_distance(std::span<const TrianglePoints> a, std::span<const TrianglePoints> b,
-                                 double spacing) {
+SurfaceDistance surface_distance(std::span<const TrianglePoints> a,
+                                 std::span<const TrianglePoints> b, double spacing) {
   SurfaceDistance d;
   if (a.empty() || b.empty() || !(spacing > 0)) return d;
   const TriangleBvh bvh_a(std::vector<TrianglePoints>(a.begin(), a.end()));
@@ -85,7 +87,8 @@ TriangleQuality triangle_quality(std::span<const TrianglePoints> triangles) {
     auto angle = [](double opp, double s1, double s2) {
       return std::acos(std::clamp((s1 * s1 + s2 * s2 - opp * opp) / (2 * s1 * s2), -1.0, 1.0));
     };
-    const double min_angle = std::min({angle(a, b, c), angle(b, c, a), angle(c, a, b)}) * 180.0 / std::numbers::pi;
+    const double min_angle =
+        std::min({angle(a, b, c), angle(b, c, a), angle(c, a, b)}) * 180.0 / std::numbers::pi;
     q.min_angle_deg = std::min(q.min_angle_deg, min_angle);
     if (min_angle < 10) ++q.below_10_deg;
     const double inradius = 2 * area / (a + b + c);
@@ -104,13 +107,16 @@ MeshSoup to_soup(const Mesh& mesh) {
   for (const FaceHandle f : mesh.faces()) {
     Triangle t;
     int k = 0;
-    for (const VertexHandle v : mesh.fv_range(f)) t[static_cast<std::size_t>(k++)] = index[static_cast<std::size_t>(v.idx())];
+    for (const VertexHandle v : mesh.fv_range(f))
+      t[static_cast<std::size_t>(k++)] = index[static_cast<std::size_t>(v.idx())];
     soup.triangles.push_back(t);
   }
   return soup;
 }
 
-ValidationReport validate_mesh(const Mesh& mesh) { return build_mesh(to_soup(mesh)).report; }
+ValidationReport validate_mesh(const Mesh& mesh) {
+  return build_mesh(to_soup(mesh)).report;
+}
 
 double bounding_box_diagonal(const Mesh& mesh) {
   Box3 box;

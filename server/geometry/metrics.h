@@ -17,18 +17,18 @@ namespace touchmend::geometry {
 //! Distances between two triangle sets. Each side is sampled on a barycentric grid of
 //! spacing \p spacing (corners and edges included); distances are point-to-surface.
 struct SurfaceDistance {
-  double h_a_to_b = 0;   //!< max over samples of A of the distance to B
+  double h_a_to_b = 0;  //!< max over samples of A of the distance to B
   double h_b_to_a = 0;
-  double hausdorff = 0;  //!< max of the two
+  double hausdorff = 0;    //!< max of the two
   double mean_a_to_b = 0;  //!< area-weighted mean
   double mean_b_to_a = 0;
-  double mean = 0;         //!< (mean_a_to_b + mean_b_to_a) / 2
+  double mean = 0;                  //!< (mean_a_to_b + mean_b_to_a) / 2
   double normal_deviation_deg = 0;  //!< mean angle between A's normals and B's at the closest point
   bool valid = false;               //!< false when either set is empty
 };
 
-SurfaceDistance surface_distance(std::span<const TrianglePoints> a, std::span<const TrianglePoints> b,
-                                 double spacing);
+SurfaceDistance surface_distance(std::span<const TrianglePoints> a,
+                                 std::span<const TrianglePoints> b, double spacing);
 
 struct TriangleQuality {
   double min_angle_deg = 180;

@@ -44,14 +44,16 @@ class PiecewiseFiller {
       stack.pop_back();
       if (!fill_piece(piece, stack)) return std::move(result_);
     }
-    result_.new_points.assign(pool_.begin() + static_cast<std::ptrdiff_t>(in_.loop.size()), pool_.end());
+    result_.new_points.assign(pool_.begin() + static_cast<std::ptrdiff_t>(in_.loop.size()),
+                              pool_.end());
     result_.ok = true;
     return std::move(result_);
   }
 
  private:
   static std::uint64_t edge_key(int a, int b) {
-    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) |
+           static_cast<std::uint32_t>(b);
   }
   static std::uint64_t undirected(int a, int b) { return a < b ? edge_key(a, b) : edge_key(b, a); }
 
@@ -62,7 +64,8 @@ class PiecewiseFiller {
 
   static Vec3 newell(std::span<const Vec3> pts) {
     Vec3 n(0, 0, 0);
-    for (std::size_t i = 0; i < pts.size(); ++i) n += OpenMesh::cross(pts[i], pts[(i + 1) % pts.size()]);
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      n += OpenMesh::cross(pts[i], pts[(i + 1) % pts.size()]);
     const double len = n.norm();
     return len > 0 ? n / len : Vec3(0, 0, 1);
   }
@@ -108,7 +111,8 @@ class PiecewiseFiller {
     candidates.push_back(pca_normal(pts, nw));
     for (const Vec3& c : candidates) {
       frame = ReferenceFrame::from_normal(c, centroid);
-      if (test_projectable(pts, outside, frame, 0.05 * in_.mean_edge_length).projectable) return true;
+      if (test_projectable(pts, outside, frame, 0.05 * in_.mean_edge_length).projectable)
+        return true;
     }
     return false;
   }
@@ -130,7 +134,8 @@ class PiecewiseFiller {
     for (std::size_t i = 0; i < n; ++i)
       for (std::size_t j = i + 2; j < n; ++j) {
         const std::uint64_t k = undirected(loop[i], loop[j]);
-        if (used_.count(k) && !own.count(k)) out.emplace_back(static_cast<int>(i), static_cast<int>(j));
+        if (used_.count(k) && !own.count(k))
+          out.emplace_back(static_cast<int>(i), static_cast<int>(j));
       }
     return out;
   }
@@ -219,7 +224,9 @@ class PiecewiseFiller {
     const std::size_t n = loop.size();
     std::vector<double> arc(n + 1, 0.0);  // arc length from loop[0] to loop[i]
     for (std::size_t i = 0; i < n; ++i)
-      arc[i + 1] = arc[i] + (pool_[static_cast<std::size_t>(loop[(i + 1) % n])] - pool_[static_cast<std::size_t>(loop[i])]).norm();
+      arc[i + 1] = arc[i] + (pool_[static_cast<std::size_t>(loop[(i + 1) % n])] -
+                             pool_[static_cast<std::size_t>(loop[i])])
+                                .norm();
     const double total = arc[n];
     struct Candidate {
       double cost;
@@ -240,7 +247,8 @@ class PiecewiseFiller {
         nearest.emplace_back((pool_[static_cast<std::size_t>(loop[j])] - pi).sqrnorm(), j);
       }
       const std::size_t keep = std::min(opt_.candidates_per_vertex, nearest.size());
-      std::partial_sort(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(keep), nearest.end());
+      std::partial_sort(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(keep),
+                        nearest.end());
       for (std::size_t c = 0; c < keep; ++c) {
         const std::size_t j = nearest[c].second;
         if (j < i) continue;  // each pair once
@@ -261,8 +269,10 @@ class PiecewiseFiller {
     for (Candidate& c : candidates) {
       h1.clear();
       h2.clear();
-      for (std::size_t k = c.i; k <= c.j; ++k) h1.push_back(pool_[static_cast<std::size_t>(loop[k])]);
-      for (std::size_t k = c.j; k != c.i; k = (k + 1) % n) h2.push_back(pool_[static_cast<std::size_t>(loop[k])]);
+      for (std::size_t k = c.i; k <= c.j; ++k)
+        h1.push_back(pool_[static_cast<std::size_t>(loop[k])]);
+      for (std::size_t k = c.j; k != c.i; k = (k + 1) % n)
+        h2.push_back(pool_[static_cast<std::size_t>(loop[k])]);
       h2.push_back(pool_[static_cast<std::size_t>(loop[c.i])]);
       c.cost += flatness_penalty(h1) + flatness_penalty(h2);
     }
@@ -280,9 +290,11 @@ class PiecewiseFiller {
       if (!chord_enters_hole(loop, c.i, c.j) || !chord_enters_hole(loop, c.j, c.i)) continue;
       const Vec3& pa = pool_[static_cast<std::size_t>(a)];
       const Vec3& pb = pool_[static_cast<std::size_t>(b)];
-      if (in_.chord_clearance && in_.chord_clearance(a, b, pa, pb) < 0.25 * in_.mean_edge_length) continue;
+      if (in_.chord_clearance && in_.chord_clearance(a, b, pa, pb) < 0.25 * in_.mean_edge_length)
+        continue;
       if (!chosen) chosen = &c;
-      std::vector<int> half1(loop.begin() + static_cast<std::ptrdiff_t>(c.i), loop.begin() + static_cast<std::ptrdiff_t>(c.j) + 1);
+      std::vector<int> half1(loop.begin() + static_cast<std::ptrdiff_t>(c.i),
+                             loop.begin() + static_cast<std::ptrdiff_t>(c.j) + 1);
       std::vector<int> half2;
       for (std::size_t k = c.j; k != c.i; k = (k + 1) % n) half2.push_back(loop[k]);
       half2.push_back(a);
@@ -307,7 +319,8 @@ class PiecewiseFiller {
     const double len = (pb - pa).norm();
     const int m = std::max(0, static_cast<int>(std::ceil(len / in_.mean_edge_length)) - 1);
     std::vector<int> chord;  // from a to b
-    const Vec3 nrm = (normals_[static_cast<std::size_t>(a)] + normals_[static_cast<std::size_t>(b)]).normalize_cond();
+    const Vec3 nrm = (normals_[static_cast<std::size_t>(a)] + normals_[static_cast<std::size_t>(b)])
+                         .normalize_cond();
     for (int k = 1; k <= m; ++k) {
       chord.push_back(static_cast<int>(pool_.size()));
       pool_.push_back(pa + (pb - pa) * (static_cast<double>(k) / (m + 1)));
@@ -315,7 +328,7 @@ class PiecewiseFiller {
     }
     Piece h1, h2;
     h1.depth = h2.depth = piece.depth + 1;
-    for (std::size_t k = i; k <= j; ++k) h1.loop.push_back(loop[k]);      // a .. b
+    for (std::size_t k = i; k <= j; ++k) h1.loop.push_back(loop[k]);                  // a .. b
     for (auto it = chord.rbegin(); it != chord.rend(); ++it) h1.loop.push_back(*it);  // back to a
     for (std::size_t k = j; k != i; k = (k + 1) % n) h2.loop.push_back(loop[k]);  // b .. (before a)
     h2.loop.push_back(a);
@@ -334,7 +347,8 @@ class PiecewiseFiller {
 
 }  // namespace
 
-PiecewiseResult triangulate_piecewise(const PiecewiseInput& input, const PiecewiseOptions& options) {
+PiecewiseResult triangulate_piecewise(const PiecewiseInput& input,
+                                      const PiecewiseOptions& options) {
   if (input.loop.size() < 3) {
     PiecewiseResult r;
     r.failure = "fewer than 3 boundary vertices";

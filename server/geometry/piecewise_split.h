@@ -56,6 +56,7 @@ struct PiecewiseResult {
   std::size_t angles_closed = 0;
 };
 
-PiecewiseResult triangulate_piecewise(const PiecewiseInput& input, const PiecewiseOptions& options = {});
+PiecewiseResult triangulate_piecewise(const PiecewiseInput& input,
+                                      const PiecewiseOptions& options = {});
 
 }  // namespace touchmend::geometry

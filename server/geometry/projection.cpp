@@ -108,7 +108,8 @@ double distance_to_segment(const Point2& p, const Point2& a, const Point2& b) {
 
 }  // namespace
 
-ProjectabilityReport test_projectable(std::span<const Vec3> loop, std::span<const Vec3> outside_points,
+ProjectabilityReport test_projectable(std::span<const Vec3> loop,
+                                      std::span<const Vec3> outside_points,
                                       const ReferenceFrame& frame, double tolerance) {
   ProjectabilityReport r;
   std::vector<Point2> polygon;

@@ -38,9 +38,9 @@ struct ReferenceFrame {
 
 struct ProjectabilityReport {
   bool projectable = false;
-  std::size_t crossings = 0;         //!< pairs of non-adjacent boundary edges that cross in 2D
-  double signed_area_ratio = 0;      //!< projected signed area / (perimeter^2 / 4π), in [-1, 1]
-  std::size_t fold_overs = 0;        //!< neighbour vertices projecting inside the hole polygon
+  std::size_t crossings = 0;     //!< pairs of non-adjacent boundary edges that cross in 2D
+  double signed_area_ratio = 0;  //!< projected signed area / (perimeter^2 / 4π), in [-1, 1]
+  std::size_t fold_overs = 0;    //!< neighbour vertices projecting inside the hole polygon
   std::string why_not;
 };
 
@@ -48,7 +48,8 @@ struct ProjectabilityReport {
 //! counter-clockwise polygon with no surrounding triangle folding over it.
 //! \param outside_points third vertices of the mesh triangles along the boundary (may be
 //!        empty); \param tolerance fold-over tolerance (0.05 x mean boundary edge length).
-ProjectabilityReport test_projectable(std::span<const Vec3> loop, std::span<const Vec3> outside_points,
+ProjectabilityReport test_projectable(std::span<const Vec3> loop,
+                                      std::span<const Vec3> outside_points,
                                       const ReferenceFrame& frame, double tolerance);
 
 //! Signed area of a 2D polygon (positive when counter-clockwise).

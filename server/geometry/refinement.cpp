@@ -33,7 +33,8 @@ bool inside_smallest_sphere(const Vec3& a, const Vec3& b, const Vec3& c, const V
   const Vec3 n = OpenMesh::cross(u, w);
   const double n2 = n.sqrnorm();
   if (!(n2 > 0)) return false;
-  const Vec3 center = a + (u.sqrnorm() * OpenMesh::cross(w, n) + w.sqrnorm() * OpenMesh::cross(n, u)) / (2 * n2);
+  const Vec3 center =
+      a + (u.sqrnorm() * OpenMesh::cross(w, n) + w.sqrnorm() * OpenMesh::cross(n, u)) / (2 * n2);
   const double r2 = (a - center).sqrnorm();
   return (p - center).sqrnorm() < r2 * (1 - 1e-9);
 }
@@ -51,7 +52,8 @@ bool relax_edge(Mesh& mesh, EdgeHandle e, const PatchSet& patch, bool keep_surfa
   const VertexHandle vk = mesh.to_vertex_handle(mesh.next_halfedge_handle(h0));
   const VertexHandle vm = mesh.to_vertex_handle(mesh.next_halfedge_handle(h1));
   const Vec3 &pi = mesh.point(vi), &pj = mesh.point(vj), &pk = mesh.point(vk), &pm = mesh.point(vm);
-  if (!inside_smallest_sphere(pi, pj, pk, pm) && !inside_smallest_sphere(pj, pi, pm, pk)) return false;
+  if (!inside_smallest_sphere(pi, pj, pk, pm) && !inside_smallest_sphere(pj, pi, pm, pk))
+    return false;
   if (!mesh.is_flip_ok(e)) return false;  // boundary edge, or edge k-m already exists
   // The two new triangles (k, i, m) and (m, j, k) must be non-degenerate and must not fold
   // over relative to the two old ones (ALGORITHMS.md §2.4, our addition).
@@ -96,14 +98,15 @@ std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, con
 
 }  // namespace
 
-std::size_t relax_patch_edges(Mesh& mesh, const std::vector<FaceHandle>& patch_faces, int max_passes,
-                              bool keep_surface) {
+std::size_t relax_patch_edges(Mesh& mesh, const std::vector<FaceHandle>& patch_faces,
+                              int max_passes, bool keep_surface) {
   const PatchSet patch(patch_faces);
   return relax_pass_all(mesh, patch_faces, patch, max_passes, keep_surface);
 }
 
 RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
-                              std::vector<VertexHandle>& new_vertices, const RefinementOptions& options) {
+                              std::vector<VertexHandle>& new_vertices,
+                              const RefinementOptions& options) {
   RefinementReport report;
   PatchSet patch(patch_faces);
   std::vector<double> sigma(mesh.n_vertices(), 0.0);
@@ -169,7 +172,8 @@ RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
     }
     if (!split_any) break;
     ++report.rounds;
-    report.flips += relax_pass_all(mesh, patch_faces, patch, options.max_relax_passes, options.keep_surface);
+    report.flips +=
+        relax_pass_all(mesh, patch_faces, patch, options.max_relax_passes, options.keep_surface);
   }
   return report;
 }

@@ -14,10 +14,12 @@ using SurfaceMesh = CGAL::Surface_mesh<Kernel::Point_3>;
 namespace PMP = CGAL::Polygon_mesh_processing;
 
 std::vector<CgalHoleResult> cgal_fill_holes(const geometry::MeshSoup& soup,
-                                            const std::vector<std::vector<std::uint32_t>>& loops, CgalMode mode) {
+                                            const std::vector<std::vector<std::uint32_t>>& loops,
+                                            CgalMode mode) {
   SurfaceMesh mesh;
   std::vector<SurfaceMesh::Vertex_index> vi;
-  for (const auto& p : soup.points) vi.push_back(mesh.add_vertex(Kernel::Point_3(p[0], p[1], p[2])));
+  for (const auto& p : soup.points)
+    vi.push_back(mesh.add_vertex(Kernel::Point_3(p[0], p[1], p[2])));
   for (const auto& t : soup.triangles) mesh.add_face(vi[t[0]], vi[t[1]], vi[t[2]]);
   std::vector<CgalHoleResult> out;
   for (const auto& loop : loops) {
@@ -39,8 +41,8 @@ std::vector<CgalHoleResult> cgal_fill_holes(const geometry::MeshSoup& soup,
     const auto start = std::chrono::steady_clock::now();
     bool ok = true;
     if (mode == CgalMode::RefineAndFair) {
-      ok = std::get<0>(PMP::triangulate_refine_and_fair_hole(mesh, border, std::back_inserter(faces),
-                                                             std::back_inserter(vertices)));
+      ok = std::get<0>(PMP::triangulate_refine_and_fair_hole(
+          mesh, border, std::back_inserter(faces), std::back_inserter(vertices)));
     } else {
       PMP::triangulate_hole(mesh, border, std::back_inserter(faces));
     }

@@ -25,6 +25,7 @@ enum class CgalMode { RefineAndFair, TriangulateOnly };
 //! with CGAL::Polygon_mesh_processing::triangulate_refine_and_fair_hole (or triangulate_hole),
 //! CGAL 5.5 defaults.
 std::vector<CgalHoleResult> cgal_fill_holes(const geometry::MeshSoup& soup,
-                                            const std::vector<std::vector<std::uint32_t>>& loops, CgalMode mode);
+                                            const std::vector<std::vector<std::uint32_t>>& loops,
+                                            CgalMode mode);
 
 }  // namespace touchmend::bench

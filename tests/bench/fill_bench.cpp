@@ -35,8 +35,8 @@ namespace geo = touchmend::geometry;
 namespace {
 
 struct TruthHole {
-  std::string label;      // case hole id
-  geo::Vec3 anchor;       // position of one of its boundary vertices
+  std::string label;  // case hole id
+  geo::Vec3 anchor;   // position of one of its boundary vertices
   std::vector<geo::TrianglePoints> truth;
   bool in_baseline = true;  // BASELINE.md has anchors for it
 };
@@ -48,10 +48,12 @@ struct Workload {
   double diagonal = 0;
 };
 
-Workload make_workload(const std::string& name, geo::MeshSoup holed, const tmd::testing::HoleCase& c, bool in_baseline) {
+Workload make_workload(const std::string& name, geo::MeshSoup holed,
+                       const tmd::testing::HoleCase& c, bool in_baseline) {
   Workload w{name, std::move(holed), {}, c.diagonal};
   for (const auto& h : c.holes)
-    w.truth.push_back({std::to_string(h.id), c.holed.points[h.loop_holed.front()], tmd::testing::ground_truth(c, h), in_baseline});
+    w.truth.push_back({std::to_string(h.id), c.holed.points[h.loop_holed.front()],
+                       tmd::testing::ground_truth(c, h), in_baseline});
   return w;
 }
 
@@ -73,15 +75,19 @@ int main(int argc, char** argv) {
   int repeat = 5;
   bool no_cgal = false;
   app.add_option("--cases", only, "Only these cases");
-  app.add_option("--shape", shape, "touchmend --shape")->check(CLI::IsMember({"flat", "fair", "auto"}));
-  app.add_option("--repeat", repeat, "Timing repetitions (median is reported)")->check(CLI::Range(1, 100));
+  app.add_option("--shape", shape, "touchmend --shape")
+      ->check(CLI::IsMember({"flat", "fair", "auto"}));
+  app.add_option("--repeat", repeat, "Timing repetitions (median is reported)")
+      ->check(CLI::Range(1, 100));
   app.add_flag("--no-cgal", no_cgal, "Skip CGAL even if available");
   int refine = 3;
   double feature_angle = -1;
   app.add_option("--feature-angle", feature_angle, "touchmend auto-shape crease angle (degrees)");
   std::string method;
-  app.add_option("--refine-iterations", refine, "touchmend refinement rounds")->check(CLI::Range(0, 10));
-  app.add_option("--method", method, "Force a touchmend method (planar, piecewise, dp); default automatic")
+  app.add_option("--refine-iterations", refine, "touchmend refinement rounds")
+      ->check(CLI::Range(0, 10));
+  app.add_option("--method", method,
+                 "Force a touchmend method (planar, piecewise, dp); default automatic")
       ->check(CLI::IsMember({"planar", "piecewise", "dp"}));
   CLI11_PARSE(app, argc, argv);
 
@@ -105,10 +111,12 @@ int main(int argc, char** argv) {
         model = line.substr(line.find(':') + 2);
         break;
       }
-    fmt::print("machine: {} ({} hardware threads); touchmend shape={} refine={}; timing: median of {} runs; "
-               "CGAL 5.5 {}\n\n",
-               model, std::thread::hardware_concurrency(), shape, options.refine_iterations, repeat,
-               cgal ? "triangulate_refine_and_fair_hole / triangulate_hole (defaults)" : "not built");
+    fmt::print(
+        "machine: {} ({} hardware threads); touchmend shape={} refine={}; timing: median of {} "
+        "runs; "
+        "CGAL 5.5 {}\n\n",
+        model, std::thread::hardware_concurrency(), shape, options.refine_iterations, repeat,
+        cgal ? "triangulate_refine_and_fair_hole / triangulate_hole (defaults)" : "not built");
   }
 
   std::vector<Workload> workloads;
@@ -135,11 +143,15 @@ int main(int argc, char** argv) {
     }
   }
 
-  fmt::print("| case | hole | bnd | touchmend ms | CGAL fair ms | ratio | CGAL tri ms | tm faces | CGAL faces | tm method/shape "
-             "| tm H ‰ | tm mean ‰ | CGAL fair mean ‰ | CGAL tri mean ‰ | best anchor mean ‰ | tm min ∠ | CGAL min ∠ | tm max AR "
-             "| tm self-int |\n");
+  fmt::print(
+      "| case | hole | bnd | touchmend ms | CGAL fair ms | ratio | CGAL tri ms | tm faces | CGAL "
+      "faces | tm method/shape "
+      "| tm H ‰ | tm mean ‰ | CGAL fair mean ‰ | CGAL tri mean ‰ | best anchor mean ‰ | tm min ∠ | "
+      "CGAL min ∠ | tm max AR "
+      "| tm self-int |\n");
   fmt::print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-  std::size_t holes_total = 0, holes_closed = 0, holes_with_truth = 0, mean_at_most_best = 0, faster = 0, timed = 0;
+  std::size_t holes_total = 0, holes_closed = 0, holes_with_truth = 0, mean_at_most_best = 0,
+              faster = 0, timed = 0;
   std::size_t self_intersections = 0, manifold_failures = 0;
   double worst_min_angle = 180;
   std::vector<double> ratios;
@@ -154,10 +166,12 @@ int main(int argc, char** argv) {
       holes = geo::find_holes(built.mesh).holes;
       report = geo::fill_holes(built.mesh, {}, options);
       if (times.empty()) times.resize(report.holes.size());
-      for (std::size_t i = 0; i < report.holes.size() && i < times.size(); ++i) times[i].push_back(report.holes[i].seconds);
+      for (std::size_t i = 0; i < report.holes.size() && i < times.size(); ++i)
+        times[i].push_back(report.holes[i].seconds);
     }
     const geo::ValidationReport after = geo::validate_mesh(built.mesh);
-    if (!(after.non_manifold_edges == 0 && after.non_manifold_vertices == 0 && after.inconsistent_edges == 0))
+    if (!(after.non_manifold_edges == 0 && after.non_manifold_vertices == 0 &&
+          after.inconsistent_edges == 0))
       ++manifold_failures;
     std::vector<std::vector<std::uint32_t>> loops;
     for (const auto& h : holes) {
@@ -166,13 +180,16 @@ int main(int argc, char** argv) {
       loops.push_back(loop);
     }
     std::vector<double> cgal_fair_s(loops.size(), -1), cgal_tri_s(loops.size(), -1);
-    std::vector<std::vector<geo::TrianglePoints>> cgal_fair_tris(loops.size()), cgal_tri_tris(loops.size());
+    std::vector<std::vector<geo::TrianglePoints>> cgal_fair_tris(loops.size()),
+        cgal_tri_tris(loops.size());
 #ifdef TOUCHMEND_HAVE_CGAL
     if (cgal) {
       std::vector<std::vector<double>> tf(loops.size()), tt(loops.size());
       for (int r = 0; r < repeat; ++r) {
-        auto fair = tmd::bench::cgal_fill_holes(w.holed, loops, tmd::bench::CgalMode::RefineAndFair);
-        auto tri = tmd::bench::cgal_fill_holes(w.holed, loops, tmd::bench::CgalMode::TriangulateOnly);
+        auto fair =
+            tmd::bench::cgal_fill_holes(w.holed, loops, tmd::bench::CgalMode::RefineAndFair);
+        auto tri =
+            tmd::bench::cgal_fill_holes(w.holed, loops, tmd::bench::CgalMode::TriangulateOnly);
         for (std::size_t i = 0; i < loops.size(); ++i) {
           tf[i].push_back(fair[i].seconds);
           tt[i].push_back(tri[i].seconds);
@@ -199,7 +216,9 @@ int main(int argc, char** argv) {
       const std::size_t si = geo::find_face_intersections(built.mesh, h.new_faces).size();
       self_intersections += si;
       std::string cgal_min_angle = "-";
-      if (!cgal_fair_tris[i].empty()) cgal_min_angle = fmt::format("{:.1f}", geo::triangle_quality(cgal_fair_tris[i]).min_angle_deg);
+      if (!cgal_fair_tris[i].empty())
+        cgal_min_angle =
+            fmt::format("{:.1f}", geo::triangle_quality(cgal_fair_tris[i]).min_angle_deg);
       for (const TruthHole& th : w.truth) {
         bool match = false;
         for (const auto v : holes[i].loop) match = match || built.mesh.point(v) == th.anchor;
@@ -210,15 +229,21 @@ int main(int argc, char** argv) {
         tm_h = fmt::format("{:.2f}", 1000 * d.hausdorff / w.diagonal);
         tm_mean = fmt::format("{:.2f}", 1000 * d.mean / w.diagonal);
         if (!cgal_fair_tris[i].empty())
-          fair_mean = fmt::format("{:.2f}", 1000 * geo::surface_distance(cgal_fair_tris[i], th.truth, spacing).mean / w.diagonal);
+          fair_mean = fmt::format(
+              "{:.2f}",
+              1000 * geo::surface_distance(cgal_fair_tris[i], th.truth, spacing).mean / w.diagonal);
         if (!cgal_tri_tris[i].empty())
-          tri_mean = fmt::format("{:.2f}", 1000 * geo::surface_distance(cgal_tri_tris[i], th.truth, spacing).mean / w.diagonal);
+          tri_mean = fmt::format(
+              "{:.2f}",
+              1000 * geo::surface_distance(cgal_tri_tris[i], th.truth, spacing).mean / w.diagonal);
         const auto it = th.in_baseline ? baseline.find({w.name, th.label}) : baseline.end();
         if (it != baseline.end() && it->second.best_mean >= 0) {
           best = fmt::format("{:.2f}", it->second.best_mean);
           ++holes_with_truth;
           // Compare at the table's printed precision (two decimals).
-          if (std::round(100 * 1000 * d.mean / w.diagonal) <= std::round(100 * it->second.best_mean)) ++mean_at_most_best;
+          if (std::round(100 * 1000 * d.mean / w.diagonal) <=
+              std::round(100 * it->second.best_mean))
+            ++mean_at_most_best;
         }
       }
       std::string ratio = "-";
@@ -229,25 +254,33 @@ int main(int argc, char** argv) {
         ++timed;
         faster += ms <= cgal_fair_s[i] * 1e3 ? 1 : 0;
       }
-      fmt::print("| {} | {} | {} | {:.3f} | {} | {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | {:.1f} | {} | {:.1f} | {} |\n",
-                 w.name, label, h.boundary_vertices, ms, cgal_fair_s[i] >= 0 ? fmt::format("{:.3f}", 1e3 * cgal_fair_s[i]) : "-",
-                 ratio, cgal_tri_s[i] >= 0 ? fmt::format("{:.3f}", 1e3 * cgal_tri_s[i]) : "-", h.faces_added,
-                 cgal_fair_tris[i].empty() ? std::string("-") : std::to_string(cgal_fair_tris[i].size()),
-                 h.filled ? geo::to_string(h.method) : "OPEN", h.filled ? geo::to_string(h.shape) : h.reason.c_str(), tm_h,
-                 tm_mean, fair_mean, tri_mean, best, quality.min_angle_deg, cgal_min_angle, quality.max_aspect_ratio, si);
+      fmt::print(
+          "| {} | {} | {} | {:.3f} | {} | {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | "
+          "{:.1f} | {} | {:.1f} | {} |\n",
+          w.name, label, h.boundary_vertices, ms,
+          cgal_fair_s[i] >= 0 ? fmt::format("{:.3f}", 1e3 * cgal_fair_s[i]) : "-", ratio,
+          cgal_tri_s[i] >= 0 ? fmt::format("{:.3f}", 1e3 * cgal_tri_s[i]) : "-", h.faces_added,
+          cgal_fair_tris[i].empty() ? std::string("-") : std::to_string(cgal_fair_tris[i].size()),
+          h.filled ? geo::to_string(h.method) : "OPEN",
+          h.filled ? geo::to_string(h.shape) : h.reason.c_str(), tm_h, tm_mean, fair_mean, tri_mean,
+          best, quality.min_angle_deg, cgal_min_angle, quality.max_aspect_ratio, si);
     }
   }
-  fmt::print("\nholes closed: {}/{}; meshes with manifold/orientation defects after filling: {}; "
-             "intersecting pairs involving new faces: {}\n",
-             holes_closed, holes_total, manifold_failures, self_intersections);
-  fmt::print("mean distance <= best anchor (BASELINE.md, 2 decimals): {}/{} holes ({:.0f}%)\n", mean_at_most_best,
-             holes_with_truth, holes_with_truth ? 100.0 * mean_at_most_best / holes_with_truth : 0.0);
+  fmt::print(
+      "\nholes closed: {}/{}; meshes with manifold/orientation defects after filling: {}; "
+      "intersecting pairs involving new faces: {}\n",
+      holes_closed, holes_total, manifold_failures, self_intersections);
+  fmt::print("mean distance <= best anchor (BASELINE.md, 2 decimals): {}/{} holes ({:.0f}%)\n",
+             mean_at_most_best, holes_with_truth,
+             holes_with_truth ? 100.0 * mean_at_most_best / holes_with_truth : 0.0);
   fmt::print("worst minimum angle of a new face: {:.1f} deg\n", worst_min_angle);
   if (timed) {
     std::sort(ratios.begin(), ratios.end());
-    fmt::print("time vs CGAL refine+fair: touchmend at most as slow on {}/{} holes; speed-up min {:.1f}x, median {:.1f}x, "
-               "max {:.1f}x\n",
-               faster, timed, ratios.front(), ratios[ratios.size() / 2], ratios.back());
+    fmt::print(
+        "time vs CGAL refine+fair: touchmend at most as slow on {}/{} holes; speed-up min {:.1f}x, "
+        "median {:.1f}x, "
+        "max {:.1f}x\n",
+        faster, timed, ratios.front(), ratios[ratios.size() / 2], ratios.back());
   }
   return 0;
 }

@@ -25,7 +25,8 @@ std::vector<std::string> list_cases() {
   std::vector<std::string> out;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(fs::path(shared_data_dir()) / "cases", ec))
-    if (entry.is_directory() && fs::exists(entry.path() / "case.json")) out.push_back(entry.path().filename().string());
+    if (entry.is_directory() && fs::exists(entry.path() / "case.json"))
+      out.push_back(entry.path().filename().string());
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -60,7 +61,8 @@ std::optional<HoleCase> load_case(const std::string& name, std::string& error) {
   const std::string original = j.value("original", "");
   c.original_path = (fs::path(c.directory) / original).lexically_normal().string();
   const bool real = j.value("type", "") != "cut_holes";
-  c.holed_path = real ? c.original_path : (fs::path(c.directory) / j.value("input", "holed.off")).string();
+  c.holed_path =
+      real ? c.original_path : (fs::path(c.directory) / j.value("input", "holed.off")).string();
   auto original_read = geometry::read_mesh_file(c.original_path);
   if (!original_read.ok) {
     error = original_read.error;
@@ -78,7 +80,9 @@ std::optional<HoleCase> load_case(const std::string& name, std::string& error) {
   for (const auto& t : c.original.triangles)
     for (auto v : t) used[v] = 1;
   for (std::size_t i = 0; i < c.original.points.size(); ++i)
-    if (used[i]) box.extend(Eigen::Vector3d(c.original.points[i][0], c.original.points[i][1], c.original.points[i][2]));
+    if (used[i])
+      box.extend(Eigen::Vector3d(c.original.points[i][0], c.original.points[i][1],
+                                 c.original.points[i][2]));
   c.diagonal = box.diagonal().norm();
   if (!real) {
     std::ifstream holes_file(fs::path(c.directory) / j.value("holes_file", "holed.holes.txt"));
@@ -114,7 +118,8 @@ std::vector<geometry::TrianglePoints> ground_truth(const HoleCase& c, const Case
   return out;
 }
 
-std::optional<std::uint32_t> matching_hole_id(const std::vector<geometry::Hole>& holes, const CaseHole& hole) {
+std::optional<std::uint32_t> matching_hole_id(const std::vector<geometry::Hole>& holes,
+                                              const CaseHole& hole) {
   const std::set<std::uint32_t> wanted(hole.loop_holed.begin(), hole.loop_holed.end());
   for (const auto& h : holes) {
     std::set<std::uint32_t> have;
@@ -146,10 +151,12 @@ std::map<std::pair<std::string, std::string>, AnchorNumbers> read_baseline() {
       cell.erase(cell.find_last_not_of(' ') + 1);
       cells.push_back(cell);
     }
-    // Per-hole rows: case | hole | kind | r | bnd | GT faces | crease | method | ms | new faces | H | H f->g | H g->f | mean ...
+    // Per-hole rows: case | hole | kind | r | bnd | GT faces | crease | method | ms | new faces | H
+    // | H f->g | H g->f | mean ...
     if (cells.size() < 20) continue;
     const std::string& method = cells[7];
-    if (method.find("CGAL") == std::string::npos && method.find("MeshLab") == std::string::npos) continue;
+    if (method.find("CGAL") == std::string::npos && method.find("MeshLab") == std::string::npos)
+      continue;
     AnchorNumbers& a = out[{cells[0], cells[1]}];
     double mean = 0, hausdorff = 0, ms = 0;
     if (number(cells[13], mean) && (a.best_mean < 0 || mean < a.best_mean)) a.best_mean = mean;
@@ -162,8 +169,8 @@ std::map<std::pair<std::string, std::string>, AnchorNumbers> read_baseline() {
   return out;
 }
 
-HoleScore score_fill(const geometry::Mesh& mesh, const geometry::HoleFillReport& fill, const HoleCase& c,
-                     const CaseHole& hole) {
+HoleScore score_fill(const geometry::Mesh& mesh, const geometry::HoleFillReport& fill,
+                     const HoleCase& c, const CaseHole& hole) {
   HoleScore s;
   const auto fill_triangles = geometry::face_triangles(mesh, fill.new_faces);
   const auto gt = ground_truth(c, hole);

@@ -48,7 +48,8 @@ std::optional<HoleCase> load_case(const std::string& name, std::string& error);
 std::vector<geometry::TrianglePoints> ground_truth(const HoleCase& c, const CaseHole& hole);
 
 //! The id (find_holes numbering) of the mesh hole whose loop has the case hole's vertex set.
-std::optional<std::uint32_t> matching_hole_id(const std::vector<geometry::Hole>& holes, const CaseHole& hole);
+std::optional<std::uint32_t> matching_hole_id(const std::vector<geometry::Hole>& holes,
+                                              const CaseHole& hole);
 
 struct HoleScore {
   geometry::SurfaceDistance distance;  //!< fill vs ground truth, absolute units
@@ -60,7 +61,7 @@ struct HoleScore {
 //! The anchors' numbers for one hole from BASELINE.md's per-hole table (per mille of the
 //! diagonal; -1 when absent).
 struct AnchorNumbers {
-  double best_mean = -1;         //!< best mean distance over all anchors
+  double best_mean = -1;  //!< best mean distance over all anchors
   double cgal_fair_mean = -1;
   double cgal_fair_hausdorff = -1;
   double cgal_fair_ms = -1;
@@ -69,7 +70,7 @@ struct AnchorNumbers {
 //! (case, hole id as printed) -> anchors, from ../shared/data/cases/BASELINE.md.
 std::map<std::pair<std::string, std::string>, AnchorNumbers> read_baseline();
 
-HoleScore score_fill(const geometry::Mesh& mesh, const geometry::HoleFillReport& fill, const HoleCase& c,
-                     const CaseHole& hole);
+HoleScore score_fill(const geometry::Mesh& mesh, const geometry::HoleFillReport& fill,
+                     const HoleCase& c, const CaseHole& hole);
 
 }  // namespace touchmend::testing

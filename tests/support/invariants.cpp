@@ -10,7 +10,8 @@ namespace touchmend::testing {
 HalfedgeSet boundary_halfedges(const geometry::Mesh& mesh) {
   HalfedgeSet out;
   for (const auto h : mesh.halfedges())
-    if (mesh.is_boundary(h)) out.emplace(mesh.from_vertex_handle(h).idx(), mesh.to_vertex_handle(h).idx());
+    if (mesh.is_boundary(h))
+      out.emplace(mesh.from_vertex_handle(h).idx(), mesh.to_vertex_handle(h).idx());
   return out;
 }
 
@@ -41,23 +42,28 @@ std::string check_fill_invariants(const Snapshot& before, const geometry::Mesh& 
   }
   const HalfedgeSet actual = boundary_halfedges(after);
   if (actual != expected)
-    problems += fmt::format("boundary differs: {} halfedges expected, {} found; ", expected.size(), actual.size());
+    problems += fmt::format("boundary differs: {} halfedges expected, {} found; ", expected.size(),
+                            actual.size());
   for (std::size_t i = 0; i < before.points.size(); ++i)
     if (after.point(geometry::VertexHandle(static_cast<int>(i))) != before.points[i]) {
       problems += fmt::format("original vertex {} moved; ", i);
       break;
     }
   const geometry::ValidationReport v = geometry::validate_mesh(after);
-  if (v.non_manifold_edges) problems += fmt::format("{} non-manifold edges; ", v.non_manifold_edges);
-  if (v.inconsistent_edges) problems += fmt::format("{} inconsistently oriented edges; ", v.inconsistent_edges);
+  if (v.non_manifold_edges)
+    problems += fmt::format("{} non-manifold edges; ", v.non_manifold_edges);
+  if (v.inconsistent_edges)
+    problems += fmt::format("{} inconsistently oriented edges; ", v.inconsistent_edges);
   if (v.non_manifold_vertices > before.non_manifold_vertices)
-    problems += fmt::format("non-manifold vertices grew from {} to {}; ", before.non_manifold_vertices,
-                            v.non_manifold_vertices);
-  if (!v.refused_faces.empty()) problems += fmt::format("{} faces cannot be rebuilt; ", v.refused_faces.size());
+    problems += fmt::format("non-manifold vertices grew from {} to {}; ",
+                            before.non_manifold_vertices, v.non_manifold_vertices);
+  if (!v.refused_faces.empty())
+    problems += fmt::format("{} faces cannot be rebuilt; ", v.refused_faces.size());
   std::vector<geometry::FaceHandle> added;
   for (const auto& r : reports) added.insert(added.end(), r.new_faces.begin(), r.new_faces.end());
   const auto hits = geometry::find_face_intersections(after, added, 5);
-  if (!hits.empty()) problems += fmt::format("{}+ intersecting face pairs involve new faces; ", hits.size());
+  if (!hits.empty())
+    problems += fmt::format("{}+ intersecting face pairs involve new faces; ", hits.size());
   return problems;
 }
 

@@ -46,19 +46,23 @@ MeshSoup uv_sphere(double r, int around, int rings) {
     const double phi = std::numbers::pi * k / rings - std::numbers::pi / 2;
     for (int i = 0; i < around; ++i) {
       const double a = 2 * std::numbers::pi * i / around;
-      s.points.emplace_back(r * std::cos(phi) * std::cos(a), r * std::cos(phi) * std::sin(a), r * std::sin(phi));
+      s.points.emplace_back(r * std::cos(phi) * std::cos(a), r * std::cos(phi) * std::sin(a),
+                            r * std::sin(phi));
     }
   }
   s.points.emplace_back(0, 0, r);
   const auto top = static_cast<std::uint32_t>(s.points.size() - 1);
-  auto id = [&](int i, int k) { return static_cast<std::uint32_t>(1 + (k - 1) * around + (i % around)); };
+  auto id = [&](int i, int k) {
+    return static_cast<std::uint32_t>(1 + (k - 1) * around + (i % around));
+  };
   for (int i = 0; i < around; ++i) s.triangles.push_back({0, id(i + 1, 1), id(i, 1)});
   for (int k = 1; k + 1 < rings; ++k)
     for (int i = 0; i < around; ++i) {
       s.triangles.push_back({id(i, k), id(i + 1, k), id(i + 1, k + 1)});
       s.triangles.push_back({id(i, k), id(i + 1, k + 1), id(i, k + 1)});
     }
-  for (int i = 0; i < around; ++i) s.triangles.push_back({id(i, rings - 1), id(i + 1, rings - 1), top});
+  for (int i = 0; i < around; ++i)
+    s.triangles.push_back({id(i, rings - 1), id(i + 1, rings - 1), top});
   return s;
 }
 
@@ -75,18 +79,19 @@ MeshSoup cube(int n) {
   struct Side {
     std::array<int, 3> origin, u, v;
   };
-  const Side sides[6] = {{{0, 0, 0}, {0, 1, 0}, {1, 0, 0}},  // z = 0, normal -z
-                         {{0, 0, n}, {1, 0, 0}, {0, 1, 0}},  // z = n, normal +z
-                         {{0, 0, 0}, {1, 0, 0}, {0, 0, 1}},  // y = 0, normal -y
-                         {{0, n, 0}, {0, 0, 1}, {1, 0, 0}},  // y = n, normal +y
-                         {{0, 0, 0}, {0, 0, 1}, {0, 1, 0}},  // x = 0, normal -x
+  const Side sides[6] = {{{0, 0, 0}, {0, 1, 0}, {1, 0, 0}},   // z = 0, normal -z
+                         {{0, 0, n}, {1, 0, 0}, {0, 1, 0}},   // z = n, normal +z
+                         {{0, 0, 0}, {1, 0, 0}, {0, 0, 1}},   // y = 0, normal -y
+                         {{0, n, 0}, {0, 0, 1}, {1, 0, 0}},   // y = n, normal +y
+                         {{0, 0, 0}, {0, 0, 1}, {0, 1, 0}},   // x = 0, normal -x
                          {{n, 0, 0}, {0, 1, 0}, {0, 0, 1}}};  // x = n, normal +x
   for (const Side& side : sides)
     for (int b = 0; b < n; ++b)
       for (int a = 0; a < n; ++a) {
         auto at = [&](int da, int db) {
           std::array<int, 3> p;
-          for (int c = 0; c < 3; ++c) p[c] = side.origin[c] + (a + da) * side.u[c] + (b + db) * side.v[c];
+          for (int c = 0; c < 3; ++c)
+            p[c] = side.origin[c] + (a + da) * side.u[c] + (b + db) * side.v[c];
           return vertex(p[0], p[1], p[2]);
         };
         s.triangles.push_back({at(0, 0), at(1, 0), at(1, 1)});
@@ -146,7 +151,8 @@ MeshSoup subdivide_midpoint(const MeshSoup& soup) {
     return it->second;
   };
   for (const auto& t : soup.triangles) {
-    const std::uint32_t ab = midpoint(t[0], t[1]), bc = midpoint(t[1], t[2]), ca = midpoint(t[2], t[0]);
+    const std::uint32_t ab = midpoint(t[0], t[1]), bc = midpoint(t[1], t[2]),
+                        ca = midpoint(t[2], t[0]);
     out.triangles.push_back({t[0], ab, ca});
     out.triangles.push_back({ab, t[1], bc});
     out.triangles.push_back({ca, bc, t[2]});

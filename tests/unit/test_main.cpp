@@ -1,5 +1,5 @@
-#include <gtest/gtest.h>
 #include <OpenMesh/Core/System/omstream.hh>
+#include <gtest/gtest.h>
 
 int main(int argc, char** argv) {
   // Faces OpenMesh refuses are reported by touchmend itself; keep OpenMesh's own log quiet.

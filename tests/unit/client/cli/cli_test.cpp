@@ -1,12 +1,11 @@
 // Runs the real `touchmend` binary: exit codes, messages, outputs, atomic writes.
 
-#include <gtest/gtest.h>
-#include <sys/wait.h>
-
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <sys/wait.h>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "client/cli/commands.h"
@@ -29,7 +28,8 @@ class Cli : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("touchmend_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("touchmend_cli_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     spot_ = testing::shared_data_dir() + "/cases/spot_sml/holed.off";
@@ -37,7 +37,9 @@ class Cli : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  void write(const std::string& name, const std::string& bytes) const { std::ofstream(path(name), std::ios::binary) << bytes; }
+  void write(const std::string& name, const std::string& bytes) const {
+    std::ofstream(path(name), std::ios::binary) << bytes;
+  }
   static std::string slurp(const std::string& p) {
     std::ifstream in(p, std::ios::binary);
     std::stringstream ss;
@@ -47,7 +49,8 @@ class Cli : public ::testing::Test {
 
   CliRun run(const std::string& args) const {
     const std::string out = path("stdout.txt"), err = path("stderr.txt");
-    const std::string cmd = std::string(TOUCHMEND_CLI_PATH) + " " + args + " >" + out + " 2>" + err + " </dev/null";
+    const std::string cmd =
+        std::string(TOUCHMEND_CLI_PATH) + " " + args + " >" + out + " 2>" + err + " </dev/null";
     const int status = std::system(cmd.c_str());
     CliRun r;
     r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -72,8 +75,10 @@ TEST_F(Cli, HelpAndUsageErrors) {
   EXPECT_EQ(no_mode.code, kExitUsage);
   EXPECT_NE(no_mode.err.find("--all"), std::string::npos);
   EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --all --hole 3").code, kExitUsage);
-  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --all --refine-iterations 9").code, kExitUsage);
-  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --all --shape round").code, kExitUsage);
+  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --all --refine-iterations 9").code,
+            kExitUsage);
+  EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --all --shape round").code,
+            kExitUsage);
   EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --near 1,2").code, kExitUsage);
   EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.off") + " --near 1,nan,2").code, kExitUsage);
   EXPECT_EQ(run("fill " + spot_ + " -o " + path("o.xyz") + " --all").code, kExitUsage);
@@ -148,32 +153,39 @@ TEST_F(Cli, FillAllWritesAClosedMeshAtomically) {
   EXPECT_EQ(built.report.boundary_edges, 0u);
   // Existing vertices keep their exact coordinates.
   const auto original = geometry::read_mesh_file(spot_);
-  for (std::size_t i = 0; i < original.soup.points.size(); ++i) ASSERT_EQ(read.soup.points[i], original.soup.points[i]);
+  for (std::size_t i = 0; i < original.soup.points.size(); ++i)
+    ASSERT_EQ(read.soup.points[i], original.soup.points[i]);
   for (const auto& e : fs::directory_iterator(dir_))
-    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << "temporary file left behind";
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos)
+        << "temporary file left behind";
 }
 
 TEST_F(Cli, FillOneHoleByIdOrByPointLeavesTheOthers) {
   const CliRun holes = run("holes " + spot_ + " --json");
   const auto h = nlohmann::json::parse(holes.out)["holes"];
   const auto id = h[1]["id"].get<std::uint32_t>();
-  const CliRun by_id = run("fill " + spot_ + " -o " + path("one.ply") + " --hole " + std::to_string(id) + " --binary");
+  const CliRun by_id = run("fill " + spot_ + " -o " + path("one.ply") + " --hole " +
+                           std::to_string(id) + " --binary");
   ASSERT_EQ(by_id.code, 0) << by_id.err;
   EXPECT_NE(by_id.out.find("filled 1 of 1"), std::string::npos) << by_id.out;
-  const auto after = geometry::find_holes(geometry::build_mesh(geometry::read_mesh_file(path("one.ply")).soup).mesh);
+  const auto after = geometry::find_holes(
+      geometry::build_mesh(geometry::read_mesh_file(path("one.ply")).soup).mesh);
   EXPECT_EQ(after.holes.size(), 2u);
   EXPECT_FALSE(geometry::find_hole_by_id(after.holes, id));
   const auto c = h[2]["centroid"];
-  const std::string point = std::to_string(c[0].get<double>()) + "," + std::to_string(c[1].get<double>()) + "," +
+  const std::string point = std::to_string(c[0].get<double>()) + "," +
+                            std::to_string(c[1].get<double>()) + "," +
                             std::to_string(c[2].get<double>());
-  const CliRun near = run("fill " + spot_ + " -o " + path("near.stl") + " --near " + point + " --json");
+  const CliRun near =
+      run("fill " + spot_ + " -o " + path("near.stl") + " --near " + point + " --json");
   ASSERT_EQ(near.code, 0) << near.err;
   const auto nj = nlohmann::json::parse(near.out);
   EXPECT_EQ(nj["holes"][0]["hole"], h[2]["id"]);
 }
 
 TEST_F(Cli, SizeLimitSkipsAndStrictReportsOpenHoles) {
-  const CliRun r = run("fill " + spot_ + " -o " + path("o.obj") + " --all --max-boundary 30 --json --strict");
+  const CliRun r =
+      run("fill " + spot_ + " -o " + path("o.obj") + " --all --max-boundary 30 --json --strict");
   ASSERT_EQ(r.code, 0) << r.err;  // skipped holes are not failures
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["filled"], 2);

@@ -1,8 +1,8 @@
 #include "server/geometry/fairing.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
+
+#include <gtest/gtest.h>
 
 #include "server/geometry/hole_filling.h"
 #include "server/geometry/holes.h"
@@ -19,7 +19,8 @@ struct CapFill {
 };
 
 CapFill flat_cap_fill() {
-  const MeshSoup s = testing::remove_faces(testing::uv_sphere(1.0, 48, 32), [](const Vec3& c) { return c[2] > 0.8; });
+  const MeshSoup s = testing::remove_faces(testing::uv_sphere(1.0, 48, 32),
+                                           [](const Vec3& c) { return c[2] > 0.8; });
   CapFill out{build_mesh(s).mesh, {}};
   const auto holes = find_holes(out.mesh).holes;
   FillOptions o;
@@ -51,7 +52,8 @@ TEST(Fairing, UniformWeightsAndMembraneAlsoSolve) {
   for (const auto weights : {FairingWeights::Uniform, FairingWeights::Cotangent})
     for (int continuity : {0, 1, 2}) {
       CapFill f = flat_cap_fill();
-      const FairingReport r = fair_vertices(f.mesh, f.free, {.continuity = continuity, .weights = weights});
+      const FairingReport r =
+          fair_vertices(f.mesh, f.free, {.continuity = continuity, .weights = weights});
       EXPECT_TRUE(r.ok) << r.failure;
       for (const auto v : f.free) EXPECT_TRUE(std::isfinite(f.mesh.point(v)[0]));
     }

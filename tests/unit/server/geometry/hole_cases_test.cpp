@@ -6,9 +6,9 @@
 // that bulges or misses the surface. The two holes that no method can close without
 // intersecting the mesh (listed below) may stay open, but only with a reason.
 
-#include <gtest/gtest.h>
-
 #include <set>
+
+#include <gtest/gtest.h>
 
 #include "server/geometry/hole_filling.h"
 #include "server/geometry/mesh_build.h"
@@ -38,7 +38,8 @@ TEST_P(HoleCases, FillsCloseToGroundTruthWithoutBreakingTheMesh) {
   const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
   EXPECT_TRUE(problems.empty()) << problems;
   if (c->holes.empty()) {  // real scan holes, no ground truth: all must close
-    for (const auto& r : report.holes) EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
+    for (const auto& r : report.holes)
+      EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
     return;
   }
   ASSERT_EQ(holes.size(), c->holes.size());
@@ -57,11 +58,14 @@ TEST_P(HoleCases, FillsCloseToGroundTruthWithoutBreakingTheMesh) {
     }
     const testing::HoleScore score = testing::score_fill(mesh, *r, *c, ch);
     const auto anchor = baseline.find(key);
-    ASSERT_NE(anchor, baseline.end()) << "BASELINE.md has no row for " << c->name << " hole " << ch.id;
+    ASSERT_NE(anchor, baseline.end())
+        << "BASELINE.md has no row for " << c->name << " hole " << ch.id;
     EXPECT_LE(score.mean_permille, 1.6 * anchor->second.cgal_fair_mean + 2.0)
-        << c->name << " hole " << ch.id << " (" << to_string(r->method) << ", " << to_string(r->shape) << ")";
+        << c->name << " hole " << ch.id << " (" << to_string(r->method) << ", "
+        << to_string(r->shape) << ")";
     EXPECT_LE(score.hausdorff_permille, 2.0 * anchor->second.cgal_fair_hausdorff + 5.0)
-        << c->name << " hole " << ch.id << " (" << to_string(r->method) << ", " << to_string(r->shape) << ")";
+        << c->name << " hole " << ch.id << " (" << to_string(r->method) << ", "
+        << to_string(r->shape) << ")";
   }
 }
 

@@ -1,10 +1,10 @@
 #include "server/geometry/hole_filling.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <functional>
 #include <numbers>
+
+#include <gtest/gtest.h>
 
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_intersections.h"
@@ -46,7 +46,6 @@ double min_new_angle(const FillRun& run) {
   return a;
 }
 
-
 TEST(FillHole, PlanarHoleInAGridStaysExactlyPlanar) {
   const MeshSoup s = remove_faces(testing::grid(16, 16), [](const Vec3& c) {
     return (c[0] - 8) * (c[0] - 8) + (c[1] - 8) * (c[1] - 8) < 16;
@@ -64,9 +63,8 @@ TEST(FillHole, PlanarHoleInAGridStaysExactlyPlanar) {
 }
 
 TEST(FillHole, HoleOnACylinderIsFairedBackOntoIt) {
-  const MeshSoup s = remove_faces(testing::cylinder(1.0, 4.0, 48, 25), [](const Vec3& c) {
-    return (c - Vec3(1, 0, 2)).norm() < 0.7;
-  });
+  const MeshSoup s = remove_faces(testing::cylinder(1.0, 4.0, 48, 25),
+                                  [](const Vec3& c) { return (c - Vec3(1, 0, 2)).norm() < 0.7; });
   const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() < 48; });
   ASSERT_EQ(run.reports.size(), 1u);
   const HoleFillReport& r = run.reports[0];
@@ -82,14 +80,16 @@ TEST(FillHole, HoleOnACylinderIsFairedBackOntoIt) {
 }
 
 TEST(FillHole, HoleOnASphereIsFairedBackOntoIt) {
-  const MeshSoup s = remove_faces(testing::uv_sphere(1.0, 48, 32), [](const Vec3& c) { return c[0] > 0.8; });
+  const MeshSoup s =
+      remove_faces(testing::uv_sphere(1.0, 48, 32), [](const Vec3& c) { return c[0] > 0.8; });
   const FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
   ASSERT_EQ(run.reports.size(), 1u);
   const HoleFillReport& r = run.reports[0];
   ASSERT_TRUE(r.filled) << r.reason;
   EXPECT_EQ(r.shape, PatchShape::Fair);
   double worst = 0;
-  for (const auto v : r.new_vertices) worst = std::max(worst, std::abs(run.mesh.point(v).norm() - 1.0));
+  for (const auto v : r.new_vertices)
+    worst = std::max(worst, std::abs(run.mesh.point(v).norm() - 1.0));
   EXPECT_LT(worst, 0.025);
   // Flat would be far off: the fair decision matters.
   FillOptions flat;
@@ -102,7 +102,8 @@ TEST(FillHole, HoleOnASphereIsFairedBackOntoIt) {
 }
 
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
-  const MeshSoup s = remove_faces(testing::cube(8), [](const Vec3& c) { return (c - Vec3(8, 4, 8)).norm() < 2.2; });
+  const MeshSoup s = remove_faces(testing::cube(8),
+                                  [](const Vec3& c) { return (c - Vec3(8, 4, 8)).norm() < 2.2; });
   const FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
   ASSERT_EQ(run.reports.size(), 1u);
   const HoleFillReport& r = run.reports[0];
@@ -167,7 +168,8 @@ TEST(FillHole, SaddleHoleProjectsAndGoesPlanar) {
 
 TEST(FillHole, TwoHolesSharingAVertexAreFilledOneAtATime) {
   const MeshSoup s = remove_faces(testing::grid(8, 8), [](const Vec3& c) {
-    return (c[0] > 2 && c[0] < 4 && c[1] > 2 && c[1] < 4) || (c[0] > 4 && c[0] < 6 && c[1] > 4 && c[1] < 6);
+    return (c[0] > 2 && c[0] < 4 && c[1] > 2 && c[1] < 4) ||
+           (c[0] > 4 && c[0] < 6 && c[1] > 4 && c[1] < 6);
   });
   Mesh mesh = build_mesh(s).mesh;
   auto holes = find_holes(mesh).holes;
@@ -205,7 +207,9 @@ TEST(FillHole, ThreeEdgeHoleGetsOneTriangle) {
 
 TEST(FillHole, ThousandVertexHole) {
   const MeshSoup s = testing::annulus(1000, 100.0, 3, 0.7);
-  const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() == 1000 && h.perimeter < 630; /* the inner circle, not the border */ });
+  const FillRun run = fill_and_check(s, {}, [](const Hole& h) {
+    return h.loop.size() == 1000 && h.perimeter < 630; /* the inner circle, not the border */
+  });
   ASSERT_EQ(run.reports.size(), 1u);
   const HoleFillReport& r = run.reports[0];
   ASSERT_TRUE(r.filled) << r.reason;
@@ -242,7 +246,8 @@ TEST(FillHole, HoleThatCanOnlyIntersectIsLeftOpenAndNothingChanges) {
 
 TEST(FillHoles, SelectionByIdNearestAndSizeLimit) {
   const MeshSoup s = remove_faces(testing::grid(20, 8), [](const Vec3& c) {
-    return (c[0] > 2 && c[0] < 5 && c[1] > 2 && c[1] < 5) || (c[0] > 10 && c[0] < 16 && c[1] > 2 && c[1] < 6);
+    return (c[0] > 2 && c[0] < 5 && c[1] > 2 && c[1] < 5) ||
+           (c[0] > 10 && c[0] < 16 && c[1] > 2 && c[1] < 6);
   });
   {
     Mesh m = build_mesh(s).mesh;
@@ -272,7 +277,8 @@ TEST(FillHoles, SelectionByIdNearestAndSizeLimit) {
     FillSelection all;
     all.max_boundary = 16;
     std::size_t progress_calls = 0;
-    const FillReport r = fill_holes(m, all, {}, [&](std::size_t, std::size_t) { return ++progress_calls > 0; });
+    const FillReport r =
+        fill_holes(m, all, {}, [&](std::size_t, std::size_t) { return ++progress_calls > 0; });
     EXPECT_EQ(r.holes_found, 3u);
     EXPECT_EQ(r.filled(), 1u);  // the 12-edge hole; the 20-edge hole and the border are skipped
     EXPECT_EQ(progress_calls, 3u);

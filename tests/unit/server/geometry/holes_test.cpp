@@ -1,10 +1,10 @@
 #include "server/geometry/holes.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <numbers>
 #include <set>
+
+#include <gtest/gtest.h>
 
 #include "server/geometry/mesh_build.h"
 #include "tests/support/mesh_factory.h"
@@ -17,7 +17,8 @@ using testing::remove_faces;
 
 //! A 10x10 grid with the cells of [3,5]x[3,5] removed: one 8-edge square hole.
 Mesh grid_with_square_hole() {
-  const MeshSoup s = remove_faces(grid(10, 10), [](const Vec3& c) { return c[0] > 3 && c[0] < 5 && c[1] > 3 && c[1] < 5; });
+  const MeshSoup s = remove_faces(
+      grid(10, 10), [](const Vec3& c) { return c[0] > 3 && c[0] < 5 && c[1] > 3 && c[1] < 5; });
   return build_mesh(s).mesh;
 }
 
@@ -53,7 +54,8 @@ TEST(FindHoles, SquareHoleInAGrid) {
 TEST(FindHoles, TwoHolesSharingAVertexAreSeparateLoops) {
   // Cells (3,3) and (4,4) removed: the holes touch at vertex (4,4) only.
   const MeshSoup s = remove_faces(grid(8, 8), [](const Vec3& c) {
-    return (c[0] > 3 && c[0] < 4 && c[1] > 3 && c[1] < 4) || (c[0] > 4 && c[0] < 5 && c[1] > 4 && c[1] < 5);
+    return (c[0] > 3 && c[0] < 4 && c[1] > 3 && c[1] < 4) ||
+           (c[0] > 4 && c[0] < 5 && c[1] > 4 && c[1] < 5);
   });
   const BuildResult b = build_mesh(s);
   const auto found = find_holes(b.mesh);

@@ -23,7 +23,8 @@ TEST(TrianglesIntersect, GeneralPosition) {
 TEST(TrianglesIntersect, SharedVertexOrEdgeIsNotAnIntersection) {
   const TrianglePoints fan = {Vec3(0, 0, 0), Vec3(0, -2, 0), Vec3(2, -1, 1)};  // shares corner 0
   EXPECT_FALSE(triangles_intersect(kFloor, {0, 1, 2}, fan, {0, 7, 8}));
-  const TrianglePoints crossing = {Vec3(0, 0, 0), Vec3(0.5, 0.5, -1), Vec3(0.5, 0.5, 1)};  // shares 0, cuts through
+  const TrianglePoints crossing = {Vec3(0, 0, 0), Vec3(0.5, 0.5, -1),
+                                   Vec3(0.5, 0.5, 1)};  // shares 0, cuts through
   EXPECT_TRUE(triangles_intersect(kFloor, {0, 1, 2}, crossing, {0, 7, 8}));
   const TrianglePoints hinge = {Vec3(2, 0, 0), Vec3(0, 2, 0), Vec3(2, 2, 1)};  // shares edge 1-2
   EXPECT_FALSE(triangles_intersect(kFloor, {0, 1, 2}, hinge, {1, 2, 9}));

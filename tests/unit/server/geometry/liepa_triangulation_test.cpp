@@ -1,10 +1,10 @@
 #include "server/geometry/liepa_triangulation.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <map>
 #include <numbers>
+
+#include <gtest/gtest.h>
 
 namespace touchmend::geometry {
 namespace {
@@ -12,7 +12,9 @@ namespace {
 TEST(MinimumDihedralTriangulation, PlanarLoopGivesFlatTriangulation) {
   std::vector<Vec3> loop, opposite;
   const int n = 12;
-  for (int i = 0; i < n; ++i) loop.emplace_back(std::cos(2 * std::numbers::pi * i / n), std::sin(2 * std::numbers::pi * i / n), 0);
+  for (int i = 0; i < n; ++i)
+    loop.emplace_back(std::cos(2 * std::numbers::pi * i / n),
+                      std::sin(2 * std::numbers::pi * i / n), 0);
   for (int i = 0; i < n; ++i) {
     const Vec3 mid = 0.5 * (loop[i] + loop[(i + 1) % n]);
     opposite.push_back(mid * 1.5);  // coplanar neighbours outside the loop
@@ -40,7 +42,8 @@ TEST(MinimumDihedralTriangulation, SaddleLoopIsAValidDisk) {
   std::map<std::pair<int, int>, int> directed;
   for (const auto& tri : t.triangles)
     for (int k = 0; k < 3; ++k) ++directed[{tri[k], tri[(k + 1) % 3]}];
-  for (int i = 0; i < n; ++i) EXPECT_EQ(directed[std::make_pair(i, (i + 1) % n)], 1);  // every boundary edge once
+  for (int i = 0; i < n; ++i)
+    EXPECT_EQ(directed[std::make_pair(i, (i + 1) % n)], 1);  // every boundary edge once
   for (const auto& [e, c] : directed) {
     EXPECT_EQ(c, 1);
     if (e.second != (e.first + 1) % n) {

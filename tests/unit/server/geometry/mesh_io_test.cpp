@@ -1,11 +1,11 @@
 #include "server/geometry/mesh_io.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+
+#include <gtest/gtest.h>
 
 #include "server/geometry/mesh_build.h"
 
@@ -29,8 +29,9 @@ Mesh tricky_mesh() {
 class TempDir : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("touchmend_io_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-                                        "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() /
+           ("touchmend_io_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
@@ -45,8 +46,11 @@ using MeshIo = TempDir;
 
 TEST_F(MeshIo, RoundTripKeepsExactDoublesInEveryLosslessFormat) {
   const Mesh m = tricky_mesh();
-  for (const auto& [name, binary] : std::vector<std::pair<std::string, bool>>{
-           {"a.off", false}, {"a.obj", false}, {"a.ply", false}, {"b.ply", true}, {"a.stl", false}}) {
+  for (const auto& [name, binary] : std::vector<std::pair<std::string, bool>>{{"a.off", false},
+                                                                              {"a.obj", false},
+                                                                              {"a.ply", false},
+                                                                              {"b.ply", true},
+                                                                              {"a.stl", false}}) {
     const WriteResult w = write_mesh_file(m, path(name), {.binary = binary});
     ASSERT_TRUE(w.ok) << name << ": " << w.error;
     const ReadResult r = read_mesh_file(path(name));
@@ -74,8 +78,11 @@ TEST_F(MeshIo, BinaryStlWarnsAboutFloatRoundingAndWeldsCorners) {
 }
 
 TEST_F(MeshIo, AsciiStlWithoutWeldingKeepsCorners) {
-  write("w.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n"
-                 "facet normal 0 0 1\nouter loop\nvertex 1 0 0\nvertex 1 1 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n");
+  write("w.stl",
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 "
+        "0\nendloop\nendfacet\n"
+        "facet normal 0 0 1\nouter loop\nvertex 1 0 0\nvertex 1 1 0\nvertex 0 1 "
+        "0\nendloop\nendfacet\nendsolid t\n");
   ReadOptions o;
   EXPECT_EQ(read_mesh_file(path("w.stl"), o).soup.points.size(), 4u);
   o.weld_stl_vertices = false;
@@ -120,15 +127,22 @@ TEST_F(MeshIo, BadInputGivesAClearErrorNamingTheProblem) {
       {"word.obj", "v 0 zero 0\n", "invalid coordinate"},
       {"wrongcount.stl", short_binary, "declares 10 triangles"},
       {"tiny.stl", "xyz", "too short"},
-      {"nanascii.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex nan 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n",
+      {"nanascii.stl",
+       "solid x\nfacet normal 0 0 1\nouter loop\nvertex nan 0 0\nvertex 1 0 0\nvertex 0 1 "
+       "0\nendloop\nendfacet\nendsolid\n",
        "non-finite"},
-      {"cut.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n", "truncated"},
-      {"noheader.ply", "ply\nformat ascii 1.0\nelement vertex 3\n", "end_header"},
-      {"trunc.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n",
+      {"cut.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n",
        "truncated"},
-      {"binply.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1000\nproperty double x\nproperty double y\n"
-                     "property double z\nend_header\n\x01\x02",
+      {"noheader.ply", "ply\nformat ascii 1.0\nelement vertex 3\n", "end_header"},
+      {"trunc.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n",
+       "truncated"},
+      {"binply.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 1000\nproperty double x\nproperty "
+       "double y\n"
+       "property double z\nend_header\n\x01\x02",
        "truncated"},
   };
   for (const BadInput& c : cases) {
@@ -143,7 +157,8 @@ TEST_F(MeshIo, BadInputGivesAClearErrorNamingTheProblem) {
 TEST_F(MeshIo, MissingFileAndUnknownExtension) {
   EXPECT_NE(read_mesh_file(path("nope.off")).error.find("no such file"), std::string::npos);
   write("mesh.xyz", "OFF\n");
-  EXPECT_NE(read_mesh_file(path("mesh.xyz")).error.find("unknown mesh file extension"), std::string::npos);
+  EXPECT_NE(read_mesh_file(path("mesh.xyz")).error.find("unknown mesh file extension"),
+            std::string::npos);
   EXPECT_FALSE(read_mesh_file(dir_.string() + "/").ok);
 }
 

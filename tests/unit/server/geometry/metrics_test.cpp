@@ -1,8 +1,8 @@
 #include "server/geometry/metrics.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
+
+#include <gtest/gtest.h>
 
 #include "server/geometry/mesh_build.h"
 #include "tests/support/mesh_factory.h"
@@ -12,7 +12,8 @@ namespace {
 
 std::vector<TrianglePoints> triangles_of(const MeshSoup& s, const Vec3& offset = Vec3(0, 0, 0)) {
   std::vector<TrianglePoints> out;
-  for (const auto& t : s.triangles) out.push_back({s.points[t[0]] + offset, s.points[t[1]] + offset, s.points[t[2]] + offset});
+  for (const auto& t : s.triangles)
+    out.push_back({s.points[t[0]] + offset, s.points[t[1]] + offset, s.points[t[2]] + offset});
   return out;
 }
 
@@ -22,7 +23,8 @@ TEST(SurfaceDistance, IdenticalSetsAreAtZeroAndOffsetsAreMeasured) {
   ASSERT_TRUE(same.valid);
   EXPECT_NEAR(same.hausdorff, 0.0, 1e-12);
   EXPECT_NEAR(same.mean, 0.0, 1e-12);
-  const auto shifted = surface_distance(a, triangles_of(testing::grid(4, 4), Vec3(0, 0, 0.25)), 0.1);
+  const auto shifted =
+      surface_distance(a, triangles_of(testing::grid(4, 4), Vec3(0, 0, 0.25)), 0.1);
   EXPECT_NEAR(shifted.hausdorff, 0.25, 1e-12);
   EXPECT_NEAR(shifted.mean, 0.25, 1e-12);
   EXPECT_NEAR(shifted.normal_deviation_deg, 0.0, 1e-9);
@@ -35,7 +37,8 @@ TEST(SurfaceDistance, IdenticalSetsAreAtZeroAndOffsetsAreMeasured) {
 }
 
 TEST(TriangleQuality, EquilateralAndSliver) {
-  const std::vector<TrianglePoints> eq = {{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.5, std::sqrt(3.0) / 2, 0)}};
+  const std::vector<TrianglePoints> eq = {
+      {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.5, std::sqrt(3.0) / 2, 0)}};
   const auto q = triangle_quality(eq);
   EXPECT_NEAR(q.min_angle_deg, 60.0, 1e-9);
   EXPECT_NEAR(q.max_aspect_ratio, 1.0, 1e-9);

@@ -1,10 +1,10 @@
 #include "server/geometry/planar_triangulation.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <map>
 #include <numbers>
+
+#include <gtest/gtest.h>
 
 namespace touchmend::geometry {
 namespace {
@@ -58,7 +58,8 @@ TEST(PlanarTriangulation, ConcaveCombAndRegularPolygon) {
   expect_valid_triangulation(comb, triangulate_planar(comb, {}));
   std::vector<Point2> circle;
   for (int i = 0; i < 200; ++i)
-    circle.push_back({std::cos(2 * std::numbers::pi * i / 200), std::sin(2 * std::numbers::pi * i / 200)});
+    circle.push_back(
+        {std::cos(2 * std::numbers::pi * i / 200), std::sin(2 * std::numbers::pi * i / 200)});
   const auto t = triangulate_planar(circle, {});
   expect_valid_triangulation(circle, t);
   EXPECT_EQ(t.angles_closed, 0u);  // every corner is wider than 5π/9

@@ -1,16 +1,17 @@
 #include "server/geometry/projection.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <numbers>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 namespace touchmend::geometry {
 namespace {
 
 TEST(ReferenceFrame, RotatesTheNormalToPlusZRightHanded) {
-  for (const Vec3& n : {Vec3(0, 0, 1), Vec3(0, 0, -1), Vec3(1, 2, 3), Vec3(-1, 0, 0), Vec3(0.3, -0.9, -0.1)}) {
+  for (const Vec3& n :
+       {Vec3(0, 0, 1), Vec3(0, 0, -1), Vec3(1, 2, 3), Vec3(-1, 0, 0), Vec3(0.3, -0.9, -0.1)}) {
     const ReferenceFrame f = ReferenceFrame::from_normal(n, Vec3(1, 1, 1));
     const Vec3 u = n / n.norm();
     EXPECT_NEAR(f.e1.norm(), 1, 1e-12);
@@ -32,7 +33,8 @@ TEST(Polygon, SignedAreaAndSelfIntersections) {
   EXPECT_GT(count_self_intersections(bowtie), 0u);
   const std::vector<Point2> spike = {{0, 0}, {2, 0}, {1, 0}, {1, 1}};  // folds back on itself
   EXPECT_GT(count_self_intersections(spike), 0u);
-  const std::vector<Point2> touching = {{0, 0}, {2, 0}, {2, 2}, {1, 0}, {0, 2}};  // vertex on an edge
+  const std::vector<Point2> touching = {
+      {0, 0}, {2, 0}, {2, 2}, {1, 0}, {0, 2}};  // vertex on an edge
   EXPECT_GT(count_self_intersections(touching), 0u);
 }
 

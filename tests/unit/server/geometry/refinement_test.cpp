@@ -1,9 +1,9 @@
 #include "server/geometry/refinement.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <numbers>
+
+#include <gtest/gtest.h>
 
 #include "server/geometry/metrics.h"
 
@@ -32,7 +32,8 @@ FanPatch make_fan(double z_ring = 0) {
     f.mesh.add_face(inner[i], outer[i], inner[(i + 1) % n]);
     f.mesh.add_face(outer[i], outer[(i + 1) % n], inner[(i + 1) % n]);
   }
-  for (int i = 1; i + 1 < n; ++i) f.patch.push_back(f.mesh.add_face(inner[0], inner[i], inner[i + 1]));
+  for (int i = 1; i + 1 < n; ++i)
+    f.patch.push_back(f.mesh.add_face(inner[0], inner[i], inner[i + 1]));
   return f;
 }
 
