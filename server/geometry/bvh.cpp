@@ -100,18 +100,4 @@ TriangleBvh::Closest TriangleBvh::closest_point(const Vec3& p) const {
   return best;
 }
 
-std::vector<TrianglePoints> mesh_triangles(const Mesh& mesh, std::vector<FaceHandle>* faces) {
-  std::vector<TrianglePoints> out;
-  out.reserve(mesh.n_faces());
-  if (faces) faces->clear();
-  for (const FaceHandle f : mesh.faces()) {
-    TrianglePoints t;
-    int k = 0;
-    for (const VertexHandle v : mesh.fv_range(f)) t[k++] = mesh.point(v);
-    out.push_back(t);
-    if (faces) faces->push_back(f);
-  }
-  return out;
-}
-
 }  // namespace touchmend::geometry

@@ -69,8 +69,5 @@ class TriangleBvh {
   std::vector<Node> nodes_;
 };
 
-//! The triangles of \p mesh's faces (non-deleted), in face order, and their face handles.
-std::vector<TrianglePoints> mesh_triangles(const Mesh& mesh,
-                                           std::vector<FaceHandle>* faces = nullptr);
 
 }  // namespace touchmend::geometry

@@ -61,6 +61,10 @@ std::string check_fill_invariants(const Snapshot& before, const geometry::Mesh& 
     problems += fmt::format("{} faces cannot be rebuilt; ", v.refused_faces.size());
   std::vector<geometry::FaceHandle> added;
   for (const auto& r : reports) added.insert(added.end(), r.new_faces.begin(), r.new_faces.end());
+  // No degenerate new triangle (quality bounds proper are asserted per test).
+  const geometry::TriangleQuality quality = geometry::triangle_quality(geometry::face_triangles(after, added));
+  if (!added.empty() && !(quality.min_angle_deg > 0.05))
+    problems += fmt::format("a new face has a {:.3f} deg angle; ", quality.min_angle_deg);
   const auto hits = geometry::find_face_intersections(after, added, 5);
   if (!hits.empty())
     problems += fmt::format("{}+ intersecting face pairs involve new faces; ", hits.size());

@@ -183,6 +183,23 @@ TEST_F(Cli, FillOneHoleByIdOrByPointLeavesTheOthers) {
   EXPECT_EQ(nj["holes"][0]["hole"], h[2]["id"]);
 }
 
+TEST_F(Cli, ClosedMeshHasNothingToFill) {
+  write("cube.off",
+        "OFF\n8 12 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n"
+        "3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n3 1 2 6\n3 1 6 5\n3 2 3 7\n3 2 7 6\n"
+        "3 3 0 4\n3 3 4 7\n");
+  const CliRun holes = run("holes " + path("cube.off"));
+  EXPECT_EQ(holes.code, 0);
+  EXPECT_NE(holes.out.find("no holes"), std::string::npos) << holes.out;
+  const CliRun all = run("fill " + path("cube.off") + " -o " + path("same.off") + " --all");
+  EXPECT_EQ(all.code, 0) << all.err;
+  EXPECT_NE(all.out.find("filled 0 of 0"), std::string::npos) << all.out;
+  const CliRun near = run("fill " + path("cube.off") + " -o " + path("near.off") + " --near 0,0,0");
+  EXPECT_EQ(near.code, kExitBadInput);
+  EXPECT_NE(near.err.find("no holes"), std::string::npos) << near.err;
+  EXPECT_FALSE(fs::exists(path("near.off")));
+}
+
 TEST_F(Cli, SizeLimitSkipsAndStrictReportsOpenHoles) {
   const CliRun r =
       run("fill " + spot_ + " -o " + path("o.obj") + " --all --max-boundary 30 --json --strict");
