@@ -69,5 +69,4 @@ class TriangleBvh {
   std::vector<Node> nodes_;
 };
 
-
 }  // namespace touchmend::geometry

@@ -15,12 +15,6 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
   return (static_cast<std::uint64_t>(a) << 32) | b;
 }
 
-struct TriangleHash {
-  std::size_t operator()(const Triangle& t) const {
-    return std::hash<std::uint64_t>{}(edge_key(t[0], t[1]) * 31 + t[2]);
-  }
-};
-
 //! Union-find used to count the fans around each vertex.
 struct DisjointSets {
   std::vector<std::uint32_t> parent;
@@ -64,14 +58,13 @@ BuildResult build_mesh(const MeshSoup& soup) {
   rep.input_faces = soup.triangles.size();
 
   // --- Validation on the raw arrays -----------------------------------------------------
+  // Sorted arrays instead of hash maps: a million-face scan stays well under a second.
+  const std::size_t n_faces = soup.triangles.size();
   std::vector<std::uint8_t> referenced(soup.points.size(), 0);
-  std::unordered_map<std::uint64_t, std::uint32_t> directed_use;  // (a,b) -> count
-  std::unordered_map<std::uint64_t, std::uint32_t> undirected_use;
-  std::unordered_set<Triangle, TriangleHash> seen;
-  directed_use.reserve(soup.triangles.size() * 3);
-  undirected_use.reserve(soup.triangles.size() * 3);
-  std::vector<std::uint8_t> usable(soup.triangles.size(), 1);
-  for (std::size_t f = 0; f < soup.triangles.size(); ++f) {
+  std::vector<std::uint8_t> usable(n_faces, 1);
+  std::vector<std::pair<Triangle, std::uint32_t>> by_corners;  // sorted corners -> face
+  by_corners.reserve(n_faces);
+  for (std::size_t f = 0; f < n_faces; ++f) {
     const Triangle& t = soup.triangles[f];
     for (std::uint32_t v : t) referenced[v] = 1;
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
@@ -88,24 +81,48 @@ BuildResult build_mesh(const MeshSoup& soup) {
     if (!(area2 > 1e-14 * scale)) ++rep.degenerate_faces;  // kept, but reported
     Triangle sorted = t;
     std::sort(sorted.begin(), sorted.end());
-    if (!seen.insert(sorted).second) {
+    by_corners.emplace_back(sorted, static_cast<std::uint32_t>(f));
+  }
+  std::sort(by_corners.begin(), by_corners.end());
+  for (std::size_t i = 1; i < by_corners.size(); ++i)
+    if (by_corners[i].first == by_corners[i - 1].first) {  // a later face with the same corners
       ++rep.duplicate_faces;
-      usable[f] = 0;
-      rep.refused_faces.push_back({f, RefusedFaceReason::DuplicateFace});
-      continue;
+      usable[by_corners[i].second] = 0;
+      rep.refused_faces.push_back({by_corners[i].second, RefusedFaceReason::DuplicateFace});
     }
+  std::vector<std::uint64_t> directed, undirected;
+  directed.reserve(3 * n_faces);
+  undirected.reserve(3 * n_faces);
+  for (std::size_t f = 0; f < n_faces; ++f) {
+    if (!usable[f]) continue;
+    const Triangle& t = soup.triangles[f];
     for (int k = 0; k < 3; ++k) {
       const std::uint32_t u = t[k], v = t[(k + 1) % 3];
-      ++directed_use[edge_key(u, v)];
-      ++undirected_use[edge_key(std::min(u, v), std::max(u, v))];
+      directed.push_back(edge_key(u, v));
+      undirected.push_back(edge_key(std::min(u, v), std::max(u, v)));
     }
   }
-  for (const auto& [key, n] : undirected_use)
-    if (n > 2) ++rep.non_manifold_edges;
-  for (const auto& [key, n] : directed_use) {
-    const auto u = static_cast<std::uint32_t>(key >> 32), v = static_cast<std::uint32_t>(key);
-    if (n > 1 && undirected_use[edge_key(std::min(u, v), std::max(u, v))] == 2)
-      ++rep.inconsistent_edges;
+  std::sort(directed.begin(), directed.end());
+  std::sort(undirected.begin(), undirected.end());
+  auto undirected_count = [&](std::uint64_t key) {
+    const auto range = std::equal_range(undirected.begin(), undirected.end(), key);
+    return static_cast<std::size_t>(range.second - range.first);
+  };
+  for (std::size_t i = 0; i < undirected.size();) {
+    std::size_t j = i;
+    while (j < undirected.size() && undirected[j] == undirected[i]) ++j;
+    if (j - i > 2) ++rep.non_manifold_edges;
+    i = j;
+  }
+  for (std::size_t i = 0; i < directed.size();) {
+    std::size_t j = i;
+    while (j < directed.size() && directed[j] == directed[i]) ++j;
+    if (j - i > 1) {
+      const auto u = static_cast<std::uint32_t>(directed[i] >> 32),
+                 v = static_cast<std::uint32_t>(directed[i]);
+      if (undirected_count(edge_key(std::min(u, v), std::max(u, v))) == 2) ++rep.inconsistent_edges;
+    }
+    i = j;
   }
   rep.unreferenced_vertices =
       static_cast<std::size_t>(std::count(referenced.begin(), referenced.end(), 0));
@@ -113,27 +130,32 @@ BuildResult build_mesh(const MeshSoup& soup) {
   // Fans: faces around a vertex that share an edge through it belong to the same fan.
   {
     std::vector<std::uint32_t> offset(soup.points.size() + 1, 0);
-    for (std::size_t f = 0; f < soup.triangles.size(); ++f)
+    for (std::size_t f = 0; f < n_faces; ++f)
       if (usable[f])
         for (std::uint32_t v : soup.triangles[f]) ++offset[v + 1];
     std::partial_sum(offset.begin(), offset.end(), offset.begin());
     std::vector<std::uint32_t> incident(offset.back());
     std::vector<std::uint32_t> fill(offset.begin(), offset.end() - 1);
-    for (std::size_t f = 0; f < soup.triangles.size(); ++f)
+    for (std::size_t f = 0; f < n_faces; ++f)
       if (usable[f])
         for (std::uint32_t v : soup.triangles[f])
           incident[fill[v]++] = static_cast<std::uint32_t>(f);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> first_face_with;  // other vertex -> slot
     for (std::size_t v = 0; v < soup.points.size(); ++v) {
       const std::uint32_t begin = offset[v], end = offset[v + 1];
       if (end - begin < 2) continue;
       DisjointSets sets(end - begin);
       // Two faces of v are in one fan if they share another vertex (an edge through v).
-      std::unordered_map<std::uint32_t, std::uint32_t> first_face_with;  // other vertex -> slot
+      first_face_with.clear();
       for (std::uint32_t i = begin; i < end; ++i)
         for (std::uint32_t w : soup.triangles[incident[i]]) {
           if (w == v) continue;
-          auto [it, inserted] = first_face_with.try_emplace(w, i - begin);
-          if (!inserted) sets.unite(i - begin, it->second);
+          auto it = std::find_if(first_face_with.begin(), first_face_with.end(),
+                                 [w](const auto& e) { return e.first == w; });
+          if (it == first_face_with.end())
+            first_face_with.emplace_back(w, i - begin);
+          else
+            sets.unite(i - begin, it->second);
         }
       std::uint32_t roots = 0;
       for (std::uint32_t i = 0; i < end - begin; ++i) roots += sets.find(i) == i;
@@ -142,7 +164,10 @@ BuildResult build_mesh(const MeshSoup& soup) {
   }
 
   // --- Build -----------------------------------------------------------------------------
-  mesh.reserve(soup.points.size(), soup.triangles.size() * 3 / 2 + 16, soup.triangles.size());
+  // Headroom for the fills to come: growing past the capacity copies every property array
+  // of the mesh once, which on a large mesh costs more than filling a hole.
+  const std::size_t nv = soup.points.size(), nf = soup.triangles.size();
+  mesh.reserve(nv + nv / 8 + 1024, (nf + nf / 8 + 2048) * 3 / 2, nf + nf / 8 + 2048);
   for (const Vec3& p : soup.points) mesh.add_vertex(p);
   for (std::size_t f = 0; f < soup.triangles.size(); ++f) {
     if (!usable[f]) continue;

@@ -75,16 +75,23 @@ PlanarTriangulation triangulate_planar(std::span<const Point2> polygon,
     int remaining = n;
     int j = 0;
     int failures_in_a_row = 0;
-    std::vector<int> active(loop);
     while (remaining > 3 && failures_in_a_row < remaining) {
       const int i = prev[j], k = next[j];
       const double theta = interior_angle(P(i), P(j), P(k));
       bool clipped = false;
       if (theta < options.close_angle && orient2d(P(i), P(j), P(k)) > area_eps &&
           front.can_add_face(i, j, k)) {
-        const auto edges = front.edges();
-        active = front.active_vertices();
-        if (!crosses_front(i, k, edges) && !contains_active(i, j, k, active)) {
+        // The front is the cycle next[]: walk it for the ear tests (no allocation).
+        bool blocked_ear = false;
+        for (int a = next[k]; a != i && !blocked_ear; a = next[a]) {
+          const int b = next[a];
+          if (in_triangle(P(i), P(j), P(k), P(a), contain_eps))
+            blocked_ear = true;
+          else if (a != i && b != i && a != k && b != k &&
+                   segments_cross(P(i), P(k), P(a), P(b), true))
+            blocked_ear = true;
+        }
+        if (!blocked_ear) {
           front.add_face(i, j, k);
           next[i] = k;
           prev[k] = i;
@@ -136,17 +143,23 @@ PlanarTriangulation triangulate_planar(std::span<const Point2> polygon,
       if (orient2d(P(a), P(b), P(c)) <= area_eps) continue;  // must lie inside the hole
       candidates.emplace_back((P(c) - P(a)).squaredNorm() + (P(c) - P(b)).squaredNorm(), c);
     }
-    std::sort(candidates.begin(), candidates.end());
+    // The thesis' criterion: the point with the minimum sum of squared distances. Usually one
+    // of the first few passes, so only the 16 best are sorted before the rest.
+    const std::size_t head = std::min<std::size_t>(16, candidates.size());
+    std::partial_sort(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(head),
+                      candidates.end());
     bool created = false;
     const auto edges = front.edges();
-    for (const auto& [score, c] : candidates) {
+    for (std::size_t ci = 0; ci < candidates.size() && !created; ++ci) {
+      if (ci == head)
+        std::sort(candidates.begin() + static_cast<std::ptrdiff_t>(head), candidates.end());
+      const int c = candidates[ci].second;
       if (!front.can_add_face(a, b, c)) continue;
       if (!front.has_front_edge(b, c) && crosses_front(b, c, edges)) continue;
       if (!front.has_front_edge(c, a) && crosses_front(c, a, edges)) continue;
       if (contains_active(a, b, c, active)) continue;
       for (const auto& e : front.add_face(a, b, c)) queue.push_back(e);
       created = true;
-      break;
     }
     if (created) {
       stalled = 0;

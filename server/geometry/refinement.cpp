@@ -76,20 +76,18 @@ bool relax_edge(Mesh& mesh, EdgeHandle e, const PatchSet& patch, bool keep_surfa
 std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, const PatchSet& patch,
                            int max_passes, bool keep_surface) {
   std::size_t flips = 0;
+  std::vector<EdgeHandle> edges;
+  edges.reserve(3 * faces.size());
   for (int pass = 0; pass < max_passes; ++pass) {
+    // The patch's edges, each once (flips change which edges the faces hold, so per pass).
+    edges.clear();
+    for (const FaceHandle f : faces)
+      for (const HalfedgeHandle h : mesh.fh_range(f)) edges.push_back(mesh.edge_handle(h));
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
     std::size_t flips_this_pass = 0;
-    std::vector<char> seen(mesh.n_edges(), 0);
-    for (const FaceHandle f : faces) {
-      // Collect first: flipping changes the face's halfedges.
-      EdgeHandle edges[3];
-      int k = 0;
-      for (const HalfedgeHandle h : mesh.fh_range(f)) edges[k++] = mesh.edge_handle(h);
-      for (const EdgeHandle e : edges) {
-        if (seen[static_cast<std::size_t>(e.idx())]) continue;
-        seen[static_cast<std::size_t>(e.idx())] = 1;
-        if (relax_edge(mesh, e, patch, keep_surface)) ++flips_this_pass;
-      }
-    }
+    for (const EdgeHandle e : edges)
+      if (relax_edge(mesh, e, patch, keep_surface)) ++flips_this_pass;
     flips += flips_this_pass;
     if (flips_this_pass == 0) break;
   }
