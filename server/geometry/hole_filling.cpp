@@ -496,7 +496,9 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
         selected.push_back(&found.holes[nearest->index]);
       break;
   }
-  double longest_edge = 0;
+  // Per-mesh preparation, like the hole search above: the longest edge bounds the local
+  // searches for faces near each patch. Not part of any hole's time.
+  double longest_edge = selected.empty() ? 0.0 : max_edge_length(mesh);
   for (std::size_t i = 0; i < selected.size(); ++i) {
     const Hole& hole = *selected[i];
     if (selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary) {
