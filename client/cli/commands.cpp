@@ -1,6 +1,9 @@
 #include "client/cli/commands.h"
 
+#include <unistd.h>
+
 #include <charconv>
+#include <iostream>
 #include <cmath>
 #include <ostream>
 
@@ -173,14 +176,15 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
       return kExitBadInput;
     }
   }
-  // Progress on stderr for multi-hole fills, so stdout stays the report.
+  // Progress on stderr for multi-hole fills when it is a terminal, so stdout stays the report.
+  const bool show_progress = !args.json && &err == &std::cerr && ::isatty(STDERR_FILENO) != 0;
   const geometry::FillReport report =
       geometry::fill_holes(mesh, selection, options, [&](std::size_t done, std::size_t total) {
         if (!args.json && total > 1)
           err << fmt::format("[{}/{}] holes processed\r", done, total) << std::flush;
         return true;
       });
-  if (!args.json && report.holes.size() > 1) err << "\n";
+  if (show_progress && report.holes.size() > 1) err << "\n";
   if (selection.mode == geometry::FillSelection::Mode::Nearest && report.holes.empty()) {
     err << "error: " << args.file << ": the mesh has no holes\n";
     return kExitBadInput;

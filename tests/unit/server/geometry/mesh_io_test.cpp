@@ -4,6 +4,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -191,6 +192,48 @@ TEST_F(MeshIo, WriteSkipsDeletedElementsAndKeepsVertexOrder) {
   EXPECT_EQ(r.soup.points.size(), 4u);
   EXPECT_EQ(r.soup.triangles.size(), 2u);
   EXPECT_EQ(r.soup.points[1], m.point(VertexHandle(1)));
+}
+
+}  // namespace
+}  // namespace touchmend::geometry
+
+namespace touchmend::geometry {
+namespace {
+
+// Every reader on garbage and on every truncation of a valid file: an answer, never a crash
+// (the sanitizer build runs this too).
+TEST(MeshIoRobustness, RandomBytesAndTruncationsNeverCrash) {
+  Mesh m;
+  const auto a = m.add_vertex({0, 0, 0}), b = m.add_vertex({1, 0, 0}), c = m.add_vertex({0, 1, 0}),
+             d = m.add_vertex({1, 1, 1});
+  m.add_face(a, b, c);
+  m.add_face(b, d, c);
+  std::mt19937 rng(12345);
+  for (const MeshFormat format : {MeshFormat::Off, MeshFormat::Obj, MeshFormat::Ply, MeshFormat::Stl}) {
+    for (const bool binary : {false, true}) {
+      std::string bytes;
+      ASSERT_TRUE(serialize_mesh(m, format, {.binary = binary}, bytes).ok);
+      for (std::size_t cut = 0; cut < bytes.size(); ++cut) {
+        const ReadResult r = parse_mesh(std::string_view(bytes).substr(0, cut), format);
+        EXPECT_TRUE(r.ok || !r.error.empty());
+      }
+      for (int trial = 0; trial < 200; ++trial) {  // flip random bytes
+        std::string noisy = bytes;
+        for (int k = 0; k < 3; ++k) noisy[rng() % noisy.size()] = static_cast<char>(rng());
+        const ReadResult r = parse_mesh(noisy, format);
+        EXPECT_TRUE(r.ok || !r.error.empty());
+        for (const auto& t : r.soup.triangles)
+          for (const auto v : t) ASSERT_LT(v, r.soup.points.size());
+        for (const auto& p : r.soup.points) ASSERT_TRUE(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]));
+      }
+    }
+    for (int trial = 0; trial < 200; ++trial) {
+      std::string garbage(rng() % 300, '\0');
+      for (char& ch : garbage) ch = static_cast<char>(rng());
+      const ReadResult r = parse_mesh(garbage, format);
+      EXPECT_TRUE(r.ok || !r.error.empty());
+    }
+  }
 }
 
 }  // namespace
