@@ -84,8 +84,10 @@ int main(int argc, char** argv) {
   double feature_angle = -1;
   std::string weights = "cotangent";
   int continuity = 1;
-  app.add_option("--fair-weights", weights, "touchmend fairing weights")->check(CLI::IsMember({"cotangent", "uniform"}));
-  app.add_option("--fair-continuity", continuity, "touchmend fairing continuity (0-2)")->check(CLI::Range(0, 2));
+  app.add_option("--fair-weights", weights, "touchmend fairing weights")
+      ->check(CLI::IsMember({"cotangent", "uniform"}));
+  app.add_option("--fair-continuity", continuity, "touchmend fairing continuity (0-2)")
+      ->check(CLI::Range(0, 2));
   app.add_option("--feature-angle", feature_angle, "touchmend auto-shape crease angle (degrees)");
   std::string method;
   app.add_option("--refine-iterations", refine, "touchmend refinement rounds")
@@ -99,7 +101,8 @@ int main(int argc, char** argv) {
   geo::parse_patch_shape(shape, options.shape);
   options.refine_iterations = refine;
   if (feature_angle > 0) options.feature_angle_deg = feature_angle;
-  options.fairing.weights = weights == "uniform" ? geo::FairingWeights::Uniform : geo::FairingWeights::Cotangent;
+  options.fairing.weights =
+      weights == "uniform" ? geo::FairingWeights::Uniform : geo::FairingWeights::Cotangent;
   options.fairing.continuity = continuity;
   if (method == "planar") options.methods = {geo::FillMethod::Planar};
   if (method == "piecewise") options.methods = {geo::FillMethod::Piecewise};
