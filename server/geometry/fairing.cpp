@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
 
 namespace touchmend::geometry {
@@ -53,6 +54,7 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
   const int n_free = static_cast<int>(free_vertices.size());
   // L(v_i) = (1/A_i) Σ_j w_ij (x_j - x_i): rows for vertices of ring < k.
   std::vector<Eigen::Triplet<double>> triplets;
+  std::vector<double> inverse_mass(static_cast<std::size_t>(n), 1.0);
   for (int i = 0; i < n; ++i) {
     if (ring_of[static_cast<std::size_t>(i)] >= k) continue;
     const VertexHandle v = vertices[static_cast<std::size_t>(i)];
@@ -82,40 +84,46 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
       }
     }
     triplets.emplace_back(i, i, diagonal);
-    // Scale each row by 1/A_i (uniform weights: by 1/valence, the umbrella operator).
-    const double scale = options.weights == FairingWeights::Cotangent
-                             ? 1.0 / std::max(area, 1e-300)
-                             : 1.0 / std::max(-diagonal, 1.0);
-    for (std::size_t t = triplets.size(); t-- > 0;) {
-      if (triplets[t].row() != i) break;
-      triplets[t] = Eigen::Triplet<double>(i, triplets[t].col(), triplets[t].value() * scale);
-    }
+    // L = M^-1 C: C holds the (symmetric) weights, M the vertex areas (uniform: valences).
+    inverse_mass[static_cast<std::size_t>(i)] = options.weights == FairingWeights::Cotangent
+                                                    ? 1.0 / std::max(area, 1e-300)
+                                                    : 1.0 / std::max(-diagonal, 1.0);
   }
-  Eigen::SparseMatrix<double> L(n, n);
-  L.setFromTriplets(triplets.begin(), triplets.end());
-  // A = (L^k) restricted to the free rows.
-  Eigen::SparseMatrix<double> Lk = L.topRows(n_free);
-  for (int p = 1; p < k; ++p) Lk = (Lk * L).pruned();
-  const Eigen::SparseMatrix<double> A = Lk.leftCols(n_free);
+  Eigen::SparseMatrix<double> C(n, n);
+  C.setFromTriplets(triplets.begin(), triplets.end());
+  // The free rows of L^k x = 0, multiplied by the (invertible) free part of M, are the free rows
+  // of C (M^-1 C)^(k-1) x = 0: same solution, and the free block of that matrix is symmetric
+  // positive definite, so a Cholesky factorisation solves it (faster than LU on large
+  // patches). LU remains the fallback.
+  const Eigen::VectorXd minv = Eigen::Map<const Eigen::VectorXd>(inverse_mass.data(), n);
+  Eigen::SparseMatrix<double> Lk = C.topRows(n_free);
+  for (int p = 1; p < k; ++p) Lk = (Lk * minv.asDiagonal() * C).pruned();
+  Eigen::SparseMatrix<double> A = Lk.leftCols(n_free);
   const Eigen::SparseMatrix<double> B = Lk.rightCols(n - n_free);
   Eigen::MatrixXd fixed(n - n_free, 3);
   for (int i = n_free; i < n; ++i)
     for (int c = 0; c < 3; ++c)
       fixed(i - n_free, c) = mesh.point(vertices[static_cast<std::size_t>(i)])[c];
   const Eigen::MatrixXd rhs = -(B * fixed);
-  Eigen::SparseLU<Eigen::SparseMatrix<double>> solver;
-  Eigen::SparseMatrix<double> Ac = A;
-  Ac.makeCompressed();
-  solver.analyzePattern(Ac);
-  solver.factorize(Ac);
-  if (solver.info() != Eigen::Success) {
-    report.failure = "fairing system is singular";
-    return report;
+  A.makeCompressed();
+  Eigen::MatrixXd x;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> cholesky(A);
+  if (cholesky.info() == Eigen::Success) {
+    x = cholesky.solve(rhs);
   }
-  const Eigen::MatrixXd x = solver.solve(rhs);
-  if (solver.info() != Eigen::Success || !x.allFinite()) {
-    report.failure = "fairing solve failed";
-    return report;
+  if (cholesky.info() != Eigen::Success || !x.allFinite()) {
+    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
+    lu.analyzePattern(A);
+    lu.factorize(A);
+    if (lu.info() != Eigen::Success) {
+      report.failure = "fairing system is singular";
+      return report;
+    }
+    x = lu.solve(rhs);
+    if (lu.info() != Eigen::Success || !x.allFinite()) {
+      report.failure = "fairing solve failed";
+      return report;
+    }
   }
   for (int i = 0; i < n_free; ++i)
     mesh.set_point(vertices[static_cast<std::size_t>(i)], Vec3(x(i, 0), x(i, 1), x(i, 2)));
