@@ -130,8 +130,16 @@ bool triangles_intersect(const TrianglePoints& t1, const std::array<int, 3>& ids
     return f.orient(a, b, t1[o1]) * f.orient(a, b, t2[o2]) > 0;
   }
   if (shared == 1) {
-    // Any intersection away from the shared corner crosses an opposite edge (see header).
     const int i = s1[0], j = s2[0];
+    // Quick reject: the other triangle's two free corners strictly on one side of the plane
+    // means the two meet only at the shared corner (the common case for neighbours).
+    const int p1 = sign(orient3d(t1[0], t1[1], t1[2], t2[(j + 1) % 3]), eps);
+    const int p2 = sign(orient3d(t1[0], t1[1], t1[2], t2[(j + 2) % 3]), eps);
+    if (p1 != 0 && p1 == p2) return false;
+    const int q1 = sign(orient3d(t2[0], t2[1], t2[2], t1[(i + 1) % 3]), eps);
+    const int q2 = sign(orient3d(t2[0], t2[1], t2[2], t1[(i + 2) % 3]), eps);
+    if (q1 != 0 && q1 == q2) return false;
+    // Any intersection away from the shared corner crosses an opposite edge (see header).
     const Vec3& a1 = t1[(i + 1) % 3];
     const Vec3& b1 = t1[(i + 2) % 3];
     const Vec3& a2 = t2[(j + 1) % 3];

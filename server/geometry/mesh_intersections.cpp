@@ -54,10 +54,10 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
     double longest_edge) {
   std::vector<std::pair<FaceHandle, FaceHandle>> out;
   if (faces.empty()) return out;
-  std::unordered_set<int> chosen;
+  std::vector<char> chosen(mesh.n_faces(), 0);
   Box3 region;
   for (const FaceHandle f : faces) {
-    chosen.insert(f.idx());
+    chosen[static_cast<std::size_t>(f.idx())] = 1;
     TrianglePoints t;
     std::array<int, 3> ids;
     face_data(mesh, f, t, ids);
@@ -87,7 +87,7 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
       if (stop) return;
       const FaceHandle g = candidates[c];
       if (g == f) return;
-      if (chosen.count(g.idx()) && g.idx() < f.idx()) return;  // chosen pair: test once
+      if (chosen[static_cast<std::size_t>(g.idx())] && g.idx() < f.idx()) return;  // test once
       if (triangles_intersect(t, ids, triangles[c], candidate_ids[c])) {
         out.emplace_back(f, g);
         if (stop_after && out.size() >= stop_after) stop = true;
