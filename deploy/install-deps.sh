@@ -9,10 +9,10 @@ packages=(
   build-essential cmake ninja-build ccache pkg-config git
   # geometry core
   libopenmesh-dev libeigen3-dev
-  # command line, logging, JSON output
-  libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
-  # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  # command line, message formatting, JSON output
+  libcli11-dev libfmt-dev nlohmann-json3-dev
+  # tests
+  libgtest-dev libgmock-dev
 )
 if [[ "${1:-}" != "--no-bench" ]]; then
   # CGAL is used only by the optional comparison benchmark (GPL-3, never linked into the product).

@@ -63,6 +63,13 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+//! "min–max" of the repetitions, in milliseconds.
+std::string spread_ms(const std::vector<double>& v) {
+  if (v.empty()) return "-";
+  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+  return fmt::format("{:.3f}–{:.3f}", 1e3 * *lo, 1e3 * *hi);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -125,7 +132,8 @@ int main(int argc, char** argv) {
         "runs; "
         "CGAL 5.5 {}\n\n",
         model, std::thread::hardware_concurrency(), shape, options.refine_iterations, repeat,
-        cgal ? "triangulate_refine_and_fair_hole / triangulate_hole (defaults)" : "not built");
+        cgal ? "triangulate_refine_and_fair_hole / triangulate_hole (defaults)"
+             : (no_cgal ? "skipped (--no-cgal)" : "not built (install libcgal-dev)"));
   }
 
   std::vector<Workload> workloads;
@@ -153,12 +161,13 @@ int main(int argc, char** argv) {
   }
 
   fmt::print(
-      "| case | hole | bnd | touchmend ms | CGAL fair ms | ratio | CGAL tri ms | tm faces | CGAL "
+      "| case | hole | bnd | touchmend ms | tm ms min–max | CGAL fair ms | ratio | CGAL tri ms | "
+      "tm faces | CGAL "
       "faces | tm method/shape "
       "| tm H ‰ | tm mean ‰ | CGAL fair mean ‰ | CGAL tri mean ‰ | best anchor mean ‰ | tm min ∠ | "
       "CGAL min ∠ | tm max AR "
       "| tm self-int |\n");
-  fmt::print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  fmt::print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   std::size_t holes_total = 0, holes_closed = 0, holes_with_truth = 0, mean_at_most_best = 0,
               faster = 0, timed = 0;
   std::size_t self_intersections = 0, manifold_failures = 0;
@@ -264,9 +273,10 @@ int main(int argc, char** argv) {
         faster += ms <= cgal_fair_s[i] * 1e3 ? 1 : 0;
       }
       fmt::print(
-          "| {} | {} | {} | {:.3f} | {} | {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} | "
+          "| {} | {} | {} | {:.3f} | {} | {} | {} | {} | {} | {} | {}/{} | {} | {} | {} | {} | {} "
+          "| "
           "{:.1f} | {} | {:.1f} | {} |\n",
-          w.name, label, h.boundary_vertices, ms,
+          w.name, label, h.boundary_vertices, ms, spread_ms(times[i]),
           cgal_fair_s[i] >= 0 ? fmt::format("{:.3f}", 1e3 * cgal_fair_s[i]) : "-", ratio,
           cgal_tri_s[i] >= 0 ? fmt::format("{:.3f}", 1e3 * cgal_tri_s[i]) : "-", h.faces_added,
           cgal_fair_tris[i].empty() ? std::string("-") : std::to_string(cgal_fair_tris[i].size()),
