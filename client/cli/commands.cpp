@@ -180,7 +180,7 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
   const bool show_progress = !args.json && &err == &std::cerr && ::isatty(STDERR_FILENO) != 0;
   const geometry::FillReport report =
       geometry::fill_holes(mesh, selection, options, [&](std::size_t done, std::size_t total) {
-        if (!args.json && total > 1)
+        if (show_progress && total > 1)
           err << fmt::format("[{}/{}] holes processed\r", done, total) << std::flush;
         return true;
       });
