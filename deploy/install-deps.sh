@@ -11,6 +11,10 @@ packages=(
   libopenmesh-dev libeigen3-dev
   # command line, message formatting, JSON output
   libcli11-dev libfmt-dev nlohmann-json3-dev
+  # wire protocol, transport (Asio/Beast), TLS, embedded store, structured logs
+  libprotobuf-dev protobuf-compiler libboost-dev libssl-dev libsqlite3-dev libspdlog-dev
+  # test tools: certificates for the TLS tests
+  openssl
   # tests
   libgtest-dev libgmock-dev
 )

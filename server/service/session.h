@@ -1,0 +1,101 @@
+#pragma once
+
+//! \file session.h
+//! \brief A repair session: the authoritative mesh document, its undo/redo history, its
+//! subscribers, and the durable journal behind it.
+//!
+//! \details Each session is a strand on the worker pool (DESIGN.md "Threading"): every
+//! method below runs on strand(), so edits are serialized without locks, and an algorithm
+//! running for one session occupies one worker while other sessions go on. An edit is
+//! validated, journaled (committed to SQLite) and only then acknowledged and broadcast.
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <boost/asio.hpp>
+
+#include "proto/rpc/mesh_document.h"
+#include "server/service/metrics.h"
+#include "server/service/rpc_server.h"
+#include "server/service/session_geometry.h"
+#include "server/service/store.h"
+#include "touchmend/v1/repair.pb.h"
+
+namespace touchmend::service {
+
+struct SessionOptions {
+  std::size_t snapshot_every = 64;  //!< journal entries between snapshots (SERVICE.md §7)
+  std::size_t max_replay = 10'000;  //!< deltas a subscriber may catch up from the journal
+  MeshLimits limits;
+};
+
+class Session : public std::enable_shared_from_this<Session> {
+ public:
+  using Strand = asio::strand<asio::thread_pool::executor_type>;
+
+  Session(SessionRow row, Store& store, asio::thread_pool& pool, Metrics& metrics,
+          const SessionOptions& options);
+
+  const std::string& id() const { return row_.id; }
+  Strand& strand() { return strand_; }
+  //! Thread-safe: owner or member (read under the manager's lock).
+  bool allows(const std::string& principal) const;
+  const SessionRow& row() const { return row_; }
+  void set_member(const std::string& principal, bool present);
+  std::uint64_t version() const { return version_.load(std::memory_order_acquire); }
+  //! Thread-safe copy of info() as of the last change.
+  v1::SessionInfo summary() const;
+
+  // ---- on strand() ----
+  Status recover();
+  v1::SessionInfo info() const;
+  Status load(LoadedMesh mesh, const std::string& mesh_name, const std::string& principal,
+              v1::LoadMeshResponse& response);
+  Status fill(const v1::FillHolesRequest& request, const std::string& principal,
+              const ServerCall* call, v1::EditResponse& response);
+  Status undo(const std::string& principal, v1::EditResponse& response);
+  Status redo(const std::string& principal, v1::EditResponse& response);
+  std::vector<v1::Hole> holes();
+  SessionGeometry::Nearest nearest_hole(const v1::Point3& point);
+  Status export_mesh(const v1::ExportMeshRequest& request, std::string& bytes);
+  //! Sends the deltas after \p after_version (or a resync), then live events.
+  Status subscribe(const CallPtr& call, std::uint64_t after_version);
+  void unsubscribe(std::uint64_t connection_id, std::uint32_t call_id);
+  void publish_presence(const v1::Presence& presence);
+  //! Writes a snapshot now (shutdown, close).
+  void snapshot();
+  //! Ends every subscription (the session was closed).
+  void close_subscribers();
+
+ private:
+  Status commit(JournalKind kind, std::uint64_t target, v1::EditResponse& response,
+                const std::string& principal, const std::string& request_id);
+  void broadcast(const v1::SessionEvent& event);
+  SnapshotRow make_snapshot() const;
+  void refresh_summary();
+
+  SessionRow row_;
+  Store& store_;
+  Metrics& metrics_;
+  SessionOptions options_;
+  Strand strand_;
+  rpc::MeshDocument document_;
+  SessionGeometry geometry_;
+  std::vector<std::uint64_t> undo_;  // versions of Edit entries that can be undone
+  std::vector<std::uint64_t> redo_;
+  std::string mesh_name_;
+  std::size_t since_snapshot_ = 0;
+  std::atomic<std::uint64_t> version_{0};
+  std::map<std::pair<std::uint64_t, std::uint32_t>, CallPtr> subscribers_;
+  mutable std::mutex members_mutex_;
+  mutable std::mutex summary_mutex_;
+  v1::SessionInfo summary_;
+};
+
+using SessionPtr = std::shared_ptr<Session>;
+
+}  // namespace touchmend::service

@@ -1,0 +1,318 @@
+#include "server/service/session_geometry.h"
+
+#include <algorithm>
+
+#include "server/geometry/metrics.h"
+
+namespace touchmend::service {
+
+using rpc::StatusCode;
+
+Status load_document(std::string_view bytes, geometry::MeshFormat format, const MeshLimits& limits,
+                     LoadedMesh& out) {
+  if (bytes.size() > limits.max_upload_bytes) {
+    return {StatusCode::ResourceExhausted, "mesh of " + std::to_string(bytes.size()) +
+                                               " bytes exceeds the limit of " +
+                                               std::to_string(limits.max_upload_bytes)};
+  }
+  geometry::ReadOptions read_options;
+  read_options.max_elements = std::max(limits.max_vertices, limits.max_faces);
+  geometry::ReadResult read = geometry::parse_mesh(bytes, format, read_options);
+  if (!read.ok) return {StatusCode::InvalidArgument, read.error};
+  if (read.soup.triangles.empty()) return {StatusCode::InvalidArgument, "the mesh has no faces"};
+  if (read.soup.points.size() > limits.max_vertices || read.soup.triangles.size() > limits.max_faces) {
+    return {StatusCode::ResourceExhausted,
+            "mesh of " + std::to_string(read.soup.points.size()) + " vertices and " +
+                std::to_string(read.soup.triangles.size()) + " faces exceeds the limits (" +
+                std::to_string(limits.max_vertices) + " vertices, " +
+                std::to_string(limits.max_faces) + " faces)"};
+  }
+  geometry::BuildResult built = geometry::build_mesh(read.soup);
+  rpc::MeshDocument doc;
+  doc.positions.reserve(built.mesh.n_vertices());
+  for (const auto v : built.mesh.vertices()) {
+    const auto& p = built.mesh.point(v);
+    doc.positions.push_back({p[0], p[1], p[2]});
+  }
+  doc.vertex_alive.assign(doc.positions.size(), 1);
+  doc.faces.reserve(built.mesh.n_faces());
+  for (const auto f : built.mesh.faces()) {
+    std::array<std::uint32_t, 3> corners{};
+    int k = 0;
+    for (const auto v : built.mesh.fv_range(f)) corners[k++] = static_cast<std::uint32_t>(v.idx());
+    doc.faces.push_back(corners);
+  }
+  doc.face_alive.assign(doc.faces.size(), 1);
+  out.document = std::move(doc);
+  out.validation = built.report;
+  return {};
+}
+
+bool to_geometry_format(v1::MeshFormat format, geometry::MeshFormat& out) {
+  switch (format) {
+    case v1::OFF: out = geometry::MeshFormat::Off; return true;
+    case v1::OBJ: out = geometry::MeshFormat::Obj; return true;
+    case v1::PLY: out = geometry::MeshFormat::Ply; return true;
+    case v1::STL: out = geometry::MeshFormat::Stl; return true;
+    default: return false;
+  }
+}
+
+geometry::FillOptions to_fill_options(const v1::FillOptions& options) {
+  geometry::FillOptions o;
+  if (options.refine_iterations() != 0) o.refine_iterations = static_cast<int>(options.refine_iterations());
+  switch (options.shape()) {
+    case v1::PATCH_SHAPE_FLAT: o.shape = geometry::PatchShape::Flat; break;
+    case v1::PATCH_SHAPE_FAIR: o.shape = geometry::PatchShape::Fair; break;
+    default: o.shape = geometry::PatchShape::Auto; break;
+  }
+  return o;
+}
+
+void to_proto(const geometry::ValidationReport& report, v1::ValidationSummary& out) {
+  out.set_input_vertices(report.input_vertices);
+  out.set_input_faces(report.input_faces);
+  out.set_degenerate_faces(report.degenerate_faces);
+  out.set_duplicate_faces(report.duplicate_faces);
+  out.set_non_manifold_edges(report.non_manifold_edges);
+  out.set_inconsistent_edges(report.inconsistent_edges);
+  out.set_non_manifold_vertices(report.non_manifold_vertices);
+  out.set_refused_faces(report.refused_faces.size());
+  out.set_boundary_loops(report.boundary_loops);
+}
+
+void to_proto(const geometry::HoleFillReport& report, v1::HoleFillResult& out) {
+  out.set_hole_id(report.hole_id);
+  out.set_boundary_vertices(static_cast<std::uint32_t>(report.boundary_vertices));
+  out.set_filled(report.filled);
+  out.set_skipped(report.skipped);
+  out.set_reason(report.reason);
+  out.set_method(geometry::to_string(report.method));
+  out.set_shape(geometry::to_string(report.shape));
+  out.set_shape_reason(report.shape_reason);
+  out.set_faces_added(static_cast<std::uint32_t>(report.faces_added));
+  out.set_vertices_added(static_cast<std::uint32_t>(report.vertices_added));
+  out.set_seconds(report.seconds);
+}
+
+Status export_document(const rpc::MeshDocument& document, geometry::MeshFormat format, bool binary,
+                       std::string& bytes) {
+  // Compact: alive vertices in slot order, alive faces.
+  geometry::MeshSoup soup;
+  std::vector<std::uint32_t> compact(document.positions.size(), kNoId);
+  for (std::size_t v = 0; v < document.positions.size(); ++v) {
+    if (!document.vertex_alive[v]) continue;
+    compact[v] = static_cast<std::uint32_t>(soup.points.size());
+    const auto& p = document.positions[v];
+    soup.points.emplace_back(p[0], p[1], p[2]);
+  }
+  for (std::size_t f = 0; f < document.faces.size(); ++f) {
+    if (!document.face_alive[f]) continue;
+    const auto& c = document.faces[f];
+    soup.triangles.push_back({compact[c[0]], compact[c[1]], compact[c[2]]});
+  }
+  geometry::BuildResult built = geometry::build_mesh(soup);
+  if (!built.report.refused_faces.empty()) {
+    return {StatusCode::Internal, "the session's mesh has faces the exporter cannot represent"};
+  }
+  geometry::WriteOptions options;
+  options.binary = binary;
+  const geometry::WriteResult written = geometry::serialize_mesh(built.mesh, format, options, bytes);
+  if (!written.ok) return {StatusCode::Internal, written.error};
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------
+
+void SessionGeometry::sync(const rpc::MeshDocument& document) {
+  if (valid_ && version_ == document.version) return;
+  geometry::MeshSoup soup;
+  soup.points.reserve(document.positions.size());
+  for (const auto& p : document.positions) soup.points.emplace_back(p[0], p[1], p[2]);
+  doc_of_mesh_face_.clear();
+  for (std::size_t f = 0; f < document.faces.size(); ++f) {
+    if (!document.face_alive[f]) continue;
+    soup.triangles.push_back(document.faces[f]);
+    doc_of_mesh_face_.push_back(static_cast<std::uint32_t>(f));
+  }
+  mesh_ = geometry::build_mesh(soup).mesh;
+  doc_of_mesh_vertex_.resize(document.positions.size());
+  mesh_of_doc_vertex_.resize(document.positions.size());
+  for (std::size_t v = 0; v < document.positions.size(); ++v) {
+    doc_of_mesh_vertex_[v] = static_cast<std::uint32_t>(v);
+    mesh_of_doc_vertex_[v] = static_cast<std::uint32_t>(v);
+  }
+  version_ = document.version;
+  valid_ = true;
+}
+
+std::uint32_t SessionGeometry::doc_vertex(std::size_t mesh_index) const {
+  return mesh_index < doc_of_mesh_vertex_.size() ? doc_of_mesh_vertex_[mesh_index] : kNoId;
+}
+
+v1::Hole SessionGeometry::hole_to_proto(const geometry::Hole& hole) const {
+  v1::Hole out;
+  out.set_id(doc_vertex(hole.id));
+  for (const auto v : hole.loop) out.add_loop(doc_vertex(static_cast<std::size_t>(v.idx())));
+  out.set_boundary_edges(static_cast<std::uint32_t>(hole.size()));
+  out.set_perimeter(hole.perimeter);
+  out.set_area(hole.area);
+  auto set = [](v1::Point3* p, const geometry::Vec3& v) {
+    p->set_x(v[0]);
+    p->set_y(v[1]);
+    p->set_z(v[2]);
+  };
+  set(out.mutable_normal(), hole.normal);
+  set(out.mutable_centroid(), hole.centroid);
+  out.set_simple(hole.is_simple);
+  out.set_unfillable_reason(hole.unfillable_reason);
+  return out;
+}
+
+std::vector<v1::Hole> SessionGeometry::holes(const rpc::MeshDocument& document) {
+  sync(document);
+  std::vector<v1::Hole> out;
+  for (const auto& h : geometry::find_holes(mesh_).holes) out.push_back(hole_to_proto(h));
+  return out;
+}
+
+SessionGeometry::Nearest SessionGeometry::nearest_hole(const rpc::MeshDocument& document,
+                                                       const v1::Point3& point) {
+  sync(document);
+  Nearest result;
+  const auto found = geometry::find_holes(mesh_, {.compute_projectability = false});
+  const geometry::Vec3 p(point.x(), point.y(), point.z());
+  if (const auto nearest = geometry::find_nearest_hole(mesh_, found.holes, p)) {
+    geometry::Hole hole = found.holes[nearest->index];
+    geometry::compute_hole_properties(mesh_, hole, true);
+    result.found = true;
+    result.hole = hole_to_proto(hole);
+    result.distance = nearest->distance;
+  }
+  return result;
+}
+
+SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& document,
+                                                   const v1::HoleSelection& selection,
+                                                   const v1::FillOptions& options,
+                                                   const geometry::FillProgress& progress) {
+  FillOutcome outcome;
+  if (options.refine_iterations() > 5) {
+    outcome.status = {StatusCode::InvalidArgument, "refine_iterations must be 1-5 (0 = default)"};
+    return outcome;
+  }
+  geometry::FillSelection sel;
+  sel.max_boundary = options.max_boundary();
+  switch (selection.mode_case()) {
+    case v1::HoleSelection::kAll:
+      sel.mode = geometry::FillSelection::Mode::All;
+      break;
+    case v1::HoleSelection::kIds:
+      sel.mode = geometry::FillSelection::Mode::Ids;
+      if (selection.ids().ids_size() == 0) {
+        outcome.status = {StatusCode::InvalidArgument, "empty hole id list"};
+        return outcome;
+      }
+      break;
+    case v1::HoleSelection::kNear: {
+      const auto& p = selection.near();
+      if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) {
+        outcome.status = {StatusCode::InvalidArgument, "the point is not finite"};
+        return outcome;
+      }
+      sel.mode = geometry::FillSelection::Mode::Nearest;
+      sel.point = geometry::Vec3(p.x(), p.y(), p.z());
+      break;
+    }
+    default:
+      outcome.status = {StatusCode::InvalidArgument, "no hole selection (all, ids or near)"};
+      return outcome;
+  }
+  sync(document);
+  if (sel.mode == geometry::FillSelection::Mode::Ids) {
+    // Ids are document vertex ids; unknown ones are an error before anything changes.
+    const auto found = geometry::find_holes(mesh_, {.compute_projectability = false});
+    std::vector<std::uint32_t> unknown;
+    for (const std::uint32_t id : selection.ids().ids()) {
+      const std::uint32_t mesh_id = id < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[id] : kNoId;
+      if (mesh_id == kNoId || !geometry::find_hole_by_id(found.holes, mesh_id)) {
+        unknown.push_back(id);
+      } else {
+        sel.ids.push_back(mesh_id);
+      }
+    }
+    if (!unknown.empty()) {
+      std::string list;
+      for (auto id : unknown) list += (list.empty() ? "" : ", ") + std::to_string(id);
+      outcome.status = {StatusCode::NotFound, "no hole with id " + list + " (the mesh has " +
+                                                  std::to_string(found.holes.size()) + " holes)"};
+      return outcome;
+    }
+  }
+  const geometry::FillReport report =
+      geometry::fill_holes(mesh_, sel, to_fill_options(options), progress);
+  if (sel.mode == geometry::FillSelection::Mode::Nearest && report.holes.empty()) {
+    outcome.status = {StatusCode::FailedPrecondition, "the mesh has no holes"};
+    return outcome;
+  }
+  // The edit as a delta: new vertices and faces get the next free document slots, in order.
+  v1::MeshDelta& delta = outcome.delta;
+  delta.set_base_version(document.version);
+  delta.set_version(document.version + 1);
+  pending_vertex_map_.clear();
+  pending_face_map_.clear();
+  std::uint32_t next_vertex = static_cast<std::uint32_t>(document.positions.size());
+  std::uint32_t next_face = static_cast<std::uint32_t>(document.faces.size());
+  std::vector<std::uint32_t> vertex_map = doc_of_mesh_vertex_;
+  vertex_map.resize(mesh_.n_vertices(), kNoId);
+  outcome.report.set_holes_found(static_cast<std::uint32_t>(report.holes_found));
+  for (const std::uint32_t id : report.unknown_ids) outcome.report.add_unknown_ids(doc_vertex(id));
+  for (const auto& h : report.holes) {
+    v1::HoleFillResult* r = outcome.report.add_holes();
+    to_proto(h, *r);
+    r->set_hole_id(doc_vertex(h.hole_id));
+    if (!h.filled) continue;
+    for (const auto v : h.new_vertices) {
+      if (mesh_.status(v).deleted()) continue;
+      const auto& p = mesh_.point(v);
+      vertex_map[static_cast<std::size_t>(v.idx())] = next_vertex;
+      pending_vertex_map_.push_back(static_cast<std::uint32_t>(v.idx()));
+      pending_vertex_map_.push_back(next_vertex);
+      delta.add_added_vertex_ids(next_vertex++);
+      delta.add_added_positions(p[0]);
+      delta.add_added_positions(p[1]);
+      delta.add_added_positions(p[2]);
+    }
+    for (const auto f : h.new_faces) {
+      if (mesh_.status(f).deleted()) continue;
+      pending_face_map_.push_back(static_cast<std::uint32_t>(f.idx()));
+      pending_face_map_.push_back(next_face);
+      delta.add_added_face_ids(next_face++);
+      for (const auto v : mesh_.fv_range(f)) {
+        delta.add_added_faces(vertex_map[static_cast<std::size_t>(v.idx())]);
+      }
+    }
+  }
+  pending_version_ = document.version + 1;
+  return outcome;
+}
+
+void SessionGeometry::commit_fill() {
+  doc_of_mesh_vertex_.resize(mesh_.n_vertices(), kNoId);
+  doc_of_mesh_face_.resize(mesh_.n_faces(), kNoId);
+  for (std::size_t i = 0; i + 1 < pending_vertex_map_.size(); i += 2) {
+    const std::uint32_t mesh_index = pending_vertex_map_[i];
+    const std::uint32_t doc_id = pending_vertex_map_[i + 1];
+    doc_of_mesh_vertex_[mesh_index] = doc_id;
+    if (mesh_of_doc_vertex_.size() <= doc_id) mesh_of_doc_vertex_.resize(doc_id + 1, kNoId);
+    mesh_of_doc_vertex_[doc_id] = mesh_index;
+  }
+  for (std::size_t i = 0; i + 1 < pending_face_map_.size(); i += 2) {
+    doc_of_mesh_face_[pending_face_map_[i]] = pending_face_map_[i + 1];
+  }
+  pending_vertex_map_.clear();
+  pending_face_map_.clear();
+  version_ = pending_version_;
+}
+
+}  // namespace touchmend::service

@@ -1,0 +1,106 @@
+#pragma once
+
+//! \file session_geometry.h
+//! \brief The bridge between a session's MeshDocument (stable slot ids, the wire's view) and
+//! the OpenMesh mesh the geometry library works on.
+//!
+//! \details The mesh is a cache: built from the document when needed (every vertex slot,
+//! dead or alive, becomes mesh vertex of the same index, so after a build the two index
+//! spaces agree) and kept current in place after fills, which only append. Fills may leave
+//! deleted elements of failed attempts in the mesh (DESIGN.md: never garbage-collect inside
+//! an algorithm), so the two index spaces drift; the maps below translate. Both maps are
+//! monotone, so a hole's id (its smallest vertex) is the same in either space.
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "proto/rpc/mesh_document.h"
+#include "proto/rpc/status.h"
+#include "server/geometry/hole_filling.h"
+#include "server/geometry/holes.h"
+#include "server/geometry/mesh.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_io.h"
+#include "touchmend/v1/repair.pb.h"
+
+namespace touchmend::service {
+
+using rpc::Status;
+
+inline constexpr std::uint32_t kNoId = std::numeric_limits<std::uint32_t>::max();
+
+//! Limits on what a client may load (SERVICE.md §2.3, configurable).
+struct MeshLimits {
+  std::size_t max_upload_bytes = std::size_t{256} << 20;
+  std::size_t max_vertices = 10'000'000;
+  std::size_t max_faces = 20'000'000;
+};
+
+struct LoadedMesh {
+  rpc::MeshDocument document;
+  geometry::ValidationReport validation;
+};
+
+//! Parses and validates a mesh file into a fresh document (version 0). Errors are
+//! INVALID_ARGUMENT with the reader's message (line/byte of the problem).
+Status load_document(std::string_view bytes, geometry::MeshFormat format, const MeshLimits& limits,
+                     LoadedMesh& out);
+
+bool to_geometry_format(v1::MeshFormat format, geometry::MeshFormat& out);
+geometry::FillOptions to_fill_options(const v1::FillOptions& options);
+void to_proto(const geometry::ValidationReport& report, v1::ValidationSummary& out);
+void to_proto(const geometry::HoleFillReport& report, v1::HoleFillResult& out);
+
+//! Serialises the alive part of \p document as a mesh file.
+Status export_document(const rpc::MeshDocument& document, geometry::MeshFormat format, bool binary,
+                       std::string& bytes);
+
+class SessionGeometry {
+ public:
+  //! Forget the cache (after undo, redo or load); the next call rebuilds it.
+  void invalidate() { valid_ = false; }
+
+  //! The holes of the current document, ids and loops in document ids.
+  std::vector<v1::Hole> holes(const rpc::MeshDocument& document);
+
+  struct Nearest {
+    bool found = false;
+    v1::Hole hole;
+    double distance = 0;
+  };
+  Nearest nearest_hole(const rpc::MeshDocument& document, const v1::Point3& point);
+
+  struct FillOutcome {
+    Status status;
+    v1::FillReport report;
+    v1::MeshDelta delta;  //!< from document.version to document.version + 1 (maybe empty)
+  };
+  //! Fills the selected holes on the cache and returns the edit as a delta on \p document
+  //! (not yet applied: the caller journals it, then applies it and calls commit_fill).
+  FillOutcome fill(const rpc::MeshDocument& document, const v1::HoleSelection& selection,
+                   const v1::FillOptions& options, const geometry::FillProgress& progress);
+  //! Records that the last fill's delta was applied to the document (else invalidate()).
+  void commit_fill();
+
+ private:
+  void sync(const rpc::MeshDocument& document);
+  v1::Hole hole_to_proto(const geometry::Hole& hole) const;
+  std::uint32_t doc_vertex(std::size_t mesh_index) const;
+
+  bool valid_ = false;
+  std::uint64_t version_ = 0;
+  geometry::Mesh mesh_;
+  std::vector<std::uint32_t> doc_of_mesh_vertex_;
+  std::vector<std::uint32_t> mesh_of_doc_vertex_;
+  std::vector<std::uint32_t> doc_of_mesh_face_;
+  // The last fill, pending commit.
+  std::vector<std::uint32_t> pending_vertex_map_;  // pairs mesh index, doc id
+  std::vector<std::uint32_t> pending_face_map_;
+  std::uint64_t pending_version_ = 0;
+};
+
+}  // namespace touchmend::service

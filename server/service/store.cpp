@@ -1,0 +1,412 @@
+#include "server/service/store.h"
+
+#include <sqlite3.h>
+
+#include <chrono>
+#include <sstream>
+
+namespace touchmend::service {
+
+using rpc::StatusCode;
+
+namespace {
+
+// RAII prepared statement with positional binding helpers.
+class Statement {
+ public:
+  Statement(sqlite3* db, const char* sql) {
+    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK) stmt_ = nullptr;
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  bool ok() const { return stmt_ != nullptr; }
+  void bind(int i, const std::string& text) {
+    sqlite3_bind_blob(stmt_, i, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
+  }
+  void bind_text(int i, const std::string& text) {
+    sqlite3_bind_text(stmt_, i, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
+  }
+  void bind(int i, std::int64_t value) { sqlite3_bind_int64(stmt_, i, value); }
+  int step() { return sqlite3_step(stmt_); }
+  std::string blob(int col) {
+    const void* data = sqlite3_column_blob(stmt_, col);
+    const int size = sqlite3_column_bytes(stmt_, col);
+    return data ? std::string(static_cast<const char*>(data), static_cast<std::size_t>(size))
+                : std::string();
+  }
+  std::string text(int col) {
+    const unsigned char* data = sqlite3_column_text(stmt_, col);
+    return data ? std::string(reinterpret_cast<const char*>(data)) : std::string();
+  }
+  std::int64_t integer(int col) { return sqlite3_column_int64(stmt_, col); }
+
+ private:
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+std::string join_versions(const std::vector<std::uint64_t>& versions) {
+  std::string out;
+  for (std::uint64_t v : versions) {
+    if (!out.empty()) out += ',';
+    out += std::to_string(v);
+  }
+  return out;
+}
+
+std::vector<std::uint64_t> split_versions(const std::string& text) {
+  std::vector<std::uint64_t> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    if (!item.empty()) out.push_back(std::stoull(item));
+  }
+  return out;
+}
+
+constexpr const char* kSchema = R"sql(
+CREATE TABLE IF NOT EXISTS sessions(
+  id TEXT PRIMARY KEY, name TEXT NOT NULL, owner TEXT NOT NULL, created_ms INTEGER NOT NULL,
+  request_id TEXT NOT NULL DEFAULT '');
+CREATE TABLE IF NOT EXISTS session_members(
+  session_id TEXT NOT NULL, principal TEXT NOT NULL, PRIMARY KEY(session_id, principal));
+CREATE TABLE IF NOT EXISTS journal(
+  session_id TEXT NOT NULL, version INTEGER NOT NULL, kind INTEGER NOT NULL,
+  target INTEGER NOT NULL, response BLOB NOT NULL, request_id TEXT NOT NULL DEFAULT '',
+  mesh_name TEXT NOT NULL DEFAULT '', PRIMARY KEY(session_id, version));
+CREATE INDEX IF NOT EXISTS journal_request ON journal(session_id, request_id);
+CREATE TABLE IF NOT EXISTS snapshots(
+  session_id TEXT NOT NULL, version INTEGER NOT NULL, document BLOB NOT NULL,
+  undo TEXT NOT NULL, redo TEXT NOT NULL, mesh_name TEXT NOT NULL DEFAULT '',
+  PRIMARY KEY(session_id, version));
+CREATE TABLE IF NOT EXISTS jobs(
+  id TEXT PRIMARY KEY, principal TEXT NOT NULL, state INTEGER NOT NULL, spec BLOB NOT NULL,
+  input BLOB NOT NULL, result BLOB, report BLOB NOT NULL DEFAULT '',
+  error_code INTEGER NOT NULL DEFAULT 0, error_message TEXT NOT NULL DEFAULT '',
+  attempts INTEGER NOT NULL DEFAULT 0, created_ms INTEGER NOT NULL,
+  finished_ms INTEGER NOT NULL DEFAULT 0, result_bytes INTEGER NOT NULL DEFAULT 0);
+)sql";
+
+}  // namespace
+
+std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& status) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+                      nullptr) != SQLITE_OK) {
+    status = {StatusCode::Unavailable,
+              "cannot open store " + file.string() + ": " + (db ? sqlite3_errmsg(db) : "?")};
+    sqlite3_close(db);
+    return nullptr;
+  }
+  std::unique_ptr<Store> store(new Store(db));
+  sqlite3_busy_timeout(db, 5000);
+  // WAL + FULL: a commit is on disk when sqlite3_step returns, and readers never block it.
+  for (const char* pragma : {"PRAGMA journal_mode=WAL", "PRAGMA synchronous=FULL",
+                             "PRAGMA foreign_keys=ON"}) {
+    if (Status s = store->exec(pragma); !s.is_ok()) {
+      status = s;
+      return nullptr;
+    }
+  }
+  if (Status s = store->exec(kSchema); !s.is_ok()) {
+    status = s;
+    return nullptr;
+  }
+  // Catch a damaged file at start-up rather than on the first edit.
+  {
+    Statement check(db, "PRAGMA quick_check");
+    if (!check.ok() || check.step() != SQLITE_ROW || check.text(0) != "ok") {
+      status = {StatusCode::DataLoss, "store " + file.string() + " failed its integrity check"};
+      return nullptr;
+    }
+  }
+  status = {};
+  return store;
+}
+
+Store::~Store() { sqlite3_close(db_); }
+
+Status Store::error(const char* what) {
+  const int code = sqlite3_errcode(db_);
+  const StatusCode status_code = (code == SQLITE_FULL || code == SQLITE_IOERR)
+                                     ? StatusCode::ResourceExhausted
+                                     : StatusCode::Internal;
+  return {status_code, std::string(what) + ": " + sqlite3_errmsg(db_)};
+}
+
+Status Store::exec(const char* sql) {
+  char* message = nullptr;
+  if (sqlite3_exec(db_, sql, nullptr, nullptr, &message) != SQLITE_OK) {
+    Status s{StatusCode::Internal, std::string("store: ") + (message ? message : "?")};
+    sqlite3_free(message);
+    return s;
+  }
+  return {};
+}
+
+Status Store::insert_session(const SessionRow& row) {
+  std::lock_guard lock(mutex_);
+  Statement st(db_, "INSERT INTO sessions(id,name,owner,created_ms,request_id) VALUES(?,?,?,?,?)");
+  st.bind_text(1, row.id);
+  st.bind_text(2, row.name);
+  st.bind_text(3, row.owner);
+  st.bind(4, row.created_ms);
+  st.bind_text(5, row.request_id);
+  if (st.step() != SQLITE_DONE) return error("insert session");
+  return {};
+}
+
+Status Store::delete_session(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  if (Status s = exec("BEGIN IMMEDIATE"); !s.is_ok()) return s;
+  for (const char* sql : {"DELETE FROM sessions WHERE id=?", "DELETE FROM session_members WHERE session_id=?",
+                          "DELETE FROM journal WHERE session_id=?",
+                          "DELETE FROM snapshots WHERE session_id=?"}) {
+    Statement st(db_, sql);
+    st.bind_text(1, id);
+    if (st.step() != SQLITE_DONE) {
+      Status s = error("delete session");
+      exec("ROLLBACK");
+      return s;
+    }
+  }
+  return exec("COMMIT");
+}
+
+Status Store::set_member(const std::string& session_id, const std::string& principal, bool present) {
+  std::lock_guard lock(mutex_);
+  Statement st(db_, present ? "INSERT OR IGNORE INTO session_members(session_id,principal) VALUES(?,?)"
+                            : "DELETE FROM session_members WHERE session_id=? AND principal=?");
+  st.bind_text(1, session_id);
+  st.bind_text(2, principal);
+  if (st.step() != SQLITE_DONE) return error("set member");
+  return {};
+}
+
+std::vector<SessionRow> Store::load_sessions() {
+  std::lock_guard lock(mutex_);
+  std::vector<SessionRow> rows;
+  Statement st(db_, "SELECT id,name,owner,created_ms,request_id FROM sessions ORDER BY created_ms,id");
+  while (st.step() == SQLITE_ROW) {
+    rows.push_back({st.text(0), st.text(1), st.text(2), {}, st.integer(3), st.text(4)});
+  }
+  for (auto& row : rows) {
+    Statement m(db_, "SELECT principal FROM session_members WHERE session_id=? ORDER BY principal");
+    m.bind_text(1, row.id);
+    while (m.step() == SQLITE_ROW) row.members.push_back(m.text(0));
+  }
+  return rows;
+}
+
+namespace {
+bool insert_snapshot(sqlite3* db, const SnapshotRow& row) {
+  Statement st(db, "INSERT OR REPLACE INTO snapshots(session_id,version,document,undo,redo,mesh_name) "
+                   "VALUES(?,?,?,?,?,?)");
+  st.bind_text(1, row.session_id);
+  st.bind(2, static_cast<std::int64_t>(row.version));
+  st.bind(3, row.document);
+  st.bind_text(4, join_versions(row.undo));
+  st.bind_text(5, join_versions(row.redo));
+  st.bind_text(6, row.mesh_name);
+  return st.step() == SQLITE_DONE;
+}
+}  // namespace
+
+Status Store::append_journal(const JournalRow& row, const SnapshotRow* snapshot) {
+  std::lock_guard lock(mutex_);
+  const auto start = std::chrono::steady_clock::now();
+  if (Status s = exec("BEGIN IMMEDIATE"); !s.is_ok()) return s;
+  Statement st(db_, "INSERT INTO journal(session_id,version,kind,target,response,request_id,mesh_name) "
+                    "VALUES(?,?,?,?,?,?,?)");
+  st.bind_text(1, row.session_id);
+  st.bind(2, static_cast<std::int64_t>(row.version));
+  st.bind(3, static_cast<std::int64_t>(row.kind));
+  st.bind(4, static_cast<std::int64_t>(row.target));
+  st.bind(5, row.response);
+  st.bind_text(6, row.request_id);
+  st.bind_text(7, row.mesh_name);
+  if (st.step() != SQLITE_DONE || (snapshot && !insert_snapshot(db_, *snapshot))) {
+    Status s = error("journal append");
+    exec("ROLLBACK");
+    return s;
+  }
+  if (Status s = exec("COMMIT"); !s.is_ok()) {
+    exec("ROLLBACK");
+    return {StatusCode::ResourceExhausted, s.message};
+  }
+  last_commit_seconds_ =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return {};
+}
+
+Status Store::write_snapshot(const SnapshotRow& row) {
+  std::lock_guard lock(mutex_);
+  if (!insert_snapshot(db_, row)) return error("snapshot");
+  // Older snapshots are no longer needed for recovery.
+  Statement st(db_, "DELETE FROM snapshots WHERE session_id=? AND version<?");
+  st.bind_text(1, row.session_id);
+  st.bind(2, static_cast<std::int64_t>(row.version));
+  st.step();
+  return {};
+}
+
+std::optional<SnapshotRow> Store::latest_snapshot(const std::string& session_id) {
+  std::lock_guard lock(mutex_);
+  Statement st(db_, "SELECT version,document,undo,redo,mesh_name FROM snapshots WHERE session_id=? "
+                    "ORDER BY version DESC LIMIT 1");
+  st.bind_text(1, session_id);
+  if (st.step() != SQLITE_ROW) return std::nullopt;
+  SnapshotRow row;
+  row.session_id = session_id;
+  row.version = static_cast<std::uint64_t>(st.integer(0));
+  row.document = st.blob(1);
+  row.undo = split_versions(st.text(2));
+  row.redo = split_versions(st.text(3));
+  row.mesh_name = st.text(4);
+  return row;
+}
+
+namespace {
+JournalRow read_journal_row(Statement& st, const std::string& session_id) {
+  JournalRow row;
+  row.session_id = session_id;
+  row.version = static_cast<std::uint64_t>(st.integer(0));
+  row.kind = static_cast<JournalKind>(st.integer(1));
+  row.target = static_cast<std::uint64_t>(st.integer(2));
+  row.response = st.blob(3);
+  row.request_id = st.text(4);
+  row.mesh_name = st.text(5);
+  return row;
+}
+constexpr const char* kJournalColumns = "version,kind,target,response,request_id,mesh_name";
+}  // namespace
+
+std::vector<JournalRow> Store::journal_after(const std::string& session_id, std::uint64_t after,
+                                             std::size_t limit) {
+  std::lock_guard lock(mutex_);
+  std::vector<JournalRow> rows;
+  const std::string sql = std::string("SELECT ") + kJournalColumns +
+                          " FROM journal WHERE session_id=? AND version>? ORDER BY version LIMIT ?";
+  Statement st(db_, sql.c_str());
+  st.bind_text(1, session_id);
+  st.bind(2, static_cast<std::int64_t>(after));
+  st.bind(3, static_cast<std::int64_t>(limit));
+  while (st.step() == SQLITE_ROW) rows.push_back(read_journal_row(st, session_id));
+  return rows;
+}
+
+std::optional<JournalRow> Store::journal_entry(const std::string& session_id, std::uint64_t version) {
+  std::lock_guard lock(mutex_);
+  const std::string sql =
+      std::string("SELECT ") + kJournalColumns + " FROM journal WHERE session_id=? AND version=?";
+  Statement st(db_, sql.c_str());
+  st.bind_text(1, session_id);
+  st.bind(2, static_cast<std::int64_t>(version));
+  if (st.step() != SQLITE_ROW) return std::nullopt;
+  return read_journal_row(st, session_id);
+}
+
+std::optional<JournalRow> Store::journal_by_request(const std::string& session_id,
+                                                    const std::string& request_id) {
+  std::lock_guard lock(mutex_);
+  const std::string sql = std::string("SELECT ") + kJournalColumns +
+                          " FROM journal WHERE session_id=? AND request_id=? LIMIT 1";
+  Statement st(db_, sql.c_str());
+  st.bind_text(1, session_id);
+  st.bind_text(2, request_id);
+  if (st.step() != SQLITE_ROW) return std::nullopt;
+  return read_journal_row(st, session_id);
+}
+
+Status Store::insert_job(const JobRow& row, const std::string& input) {
+  std::lock_guard lock(mutex_);
+  Statement st(db_, "INSERT INTO jobs(id,principal,state,spec,input,created_ms) VALUES(?,?,?,?,?,?)");
+  st.bind_text(1, row.id);
+  st.bind_text(2, row.principal);
+  st.bind(3, static_cast<std::int64_t>(row.state));
+  st.bind(4, row.spec);
+  st.bind(5, input);
+  st.bind(6, row.created_ms);
+  if (st.step() != SQLITE_DONE) return error("insert job");
+  return {};
+}
+
+Status Store::update_job(const JobRow& row) {
+  std::lock_guard lock(mutex_);
+  Statement st(db_, "UPDATE jobs SET state=?,report=?,error_code=?,error_message=?,attempts=?,"
+                    "finished_ms=? WHERE id=?");
+  st.bind(1, static_cast<std::int64_t>(row.state));
+  st.bind(2, row.report);
+  st.bind(3, static_cast<std::int64_t>(row.error_code));
+  st.bind_text(4, row.error_message);
+  st.bind(5, static_cast<std::int64_t>(row.attempts));
+  st.bind(6, row.finished_ms);
+  st.bind_text(7, row.id);
+  if (st.step() != SQLITE_DONE) return error("update job");
+  return {};
+}
+
+Status Store::set_job_result(const JobRow& row, const std::string& result) {
+  std::lock_guard lock(mutex_);
+  Statement st(db_, "UPDATE jobs SET state=?,report=?,error_code=0,error_message='',attempts=?,"
+                    "finished_ms=?,result=?,result_bytes=?,input=x'' WHERE id=?");
+  st.bind(1, static_cast<std::int64_t>(row.state));
+  st.bind(2, row.report);
+  st.bind(3, static_cast<std::int64_t>(row.attempts));
+  st.bind(4, row.finished_ms);
+  st.bind(5, result);
+  st.bind(6, static_cast<std::int64_t>(result.size()));
+  st.bind_text(7, row.id);
+  if (st.step() != SQLITE_DONE) return error("job result");
+  return {};
+}
+
+std::vector<JobRow> Store::load_jobs() {
+  std::lock_guard lock(mutex_);
+  std::vector<JobRow> rows;
+  Statement st(db_, "SELECT id,principal,state,spec,report,error_code,error_message,attempts,"
+                    "created_ms,finished_ms,result_bytes FROM jobs ORDER BY created_ms,id");
+  while (st.step() == SQLITE_ROW) {
+    JobRow row;
+    row.id = st.text(0);
+    row.principal = st.text(1);
+    row.state = static_cast<int>(st.integer(2));
+    row.spec = st.blob(3);
+    row.report = st.blob(4);
+    row.error_code = static_cast<int>(st.integer(5));
+    row.error_message = st.text(6);
+    row.attempts = static_cast<std::uint32_t>(st.integer(7));
+    row.created_ms = st.integer(8);
+    row.finished_ms = st.integer(9);
+    row.result_bytes = static_cast<std::uint64_t>(st.integer(10));
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+std::optional<std::string> Store::job_input(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  Statement st(db_, "SELECT input FROM jobs WHERE id=?");
+  st.bind_text(1, id);
+  if (st.step() != SQLITE_ROW) return std::nullopt;
+  return st.blob(0);
+}
+
+std::optional<std::string> Store::job_result(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  Statement st(db_, "SELECT result FROM jobs WHERE id=? AND result IS NOT NULL");
+  st.bind_text(1, id);
+  if (st.step() != SQLITE_ROW) return std::nullopt;
+  return st.blob(0);
+}
+
+Status Store::delete_job(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  Statement st(db_, "DELETE FROM jobs WHERE id=?");
+  st.bind_text(1, id);
+  if (st.step() != SQLITE_DONE) return error("delete job");
+  return {};
+}
+
+}  // namespace touchmend::service
