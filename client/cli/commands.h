@@ -18,6 +18,15 @@ enum ExitCode : int {
   kExitBadInput = 1,  //!< the input file (or a hole id) is wrong; the message names the problem
   kExitUsage = 2,     //!< the command line is wrong
   kExitLeftOpen = 3,  //!< --strict: some selected holes could not be filled
+  kExitServer = 4,    //!< the server could not be reached, refused the token, or failed
+};
+
+//! Where a command runs when --server is given.
+struct RemoteArgs {
+  std::string server;  //!< HOST:PORT; empty = in-process
+  std::string token;   //!< bearer token (or $TOUCHMEND_TOKEN)
+  std::string tls_ca;  //!< CA file: connect with TLS and verify the server against it
+  bool tls = false;    //!< TLS with the system's CAs
 };
 
 struct InfoArgs {
@@ -44,7 +53,17 @@ struct FillArgs {
   bool strict = false;
 };
 
+struct JobArgs {
+  std::string action;  //!< submit, status, wait, cancel, fetch, list
+  std::string job_id;
+  FillArgs fill;       //!< submit: input file, selection and options (output: --wait -o)
+  bool wait = false;
+};
+
 int run_info(const InfoArgs& args, std::ostream& out, std::ostream& err);
+int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err);
+int run_fill_remote(const FillArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err);
+int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err);
 int run_holes(const HolesArgs& args, std::ostream& out, std::ostream& err);
 int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err);
 

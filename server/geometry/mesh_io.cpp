@@ -907,18 +907,7 @@ WriteResult serialize_mesh(const Mesh& mesh, MeshFormat format, const WriteOptio
   return w;
 }
 
-WriteResult write_mesh_file(const Mesh& mesh, const std::string& path,
-                            const WriteOptions& options) {
-  WriteResult w;
-  MeshFormat format;
-  if (!format_from_path(path, format)) {
-    w.error =
-        fmt::format("{}: unknown mesh file extension (expected .stl, .obj, .off or .ply)", path);
-    return w;
-  }
-  std::string bytes;
-  w = serialize_mesh(mesh, format, options, bytes);
-  if (!w.ok) return w;
+bool write_file_atomically(const std::string& path, std::string_view bytes, std::string& error) {
   namespace fs = std::filesystem;
   const fs::path target(path);
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
@@ -926,10 +915,9 @@ WriteResult write_mesh_file(const Mesh& mesh, const std::string& path,
   const fs::path tmp = dir / fmt::format(".{}.tmp-{:08x}", target.filename().string(), rd());
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) {
-    w.ok = false;
-    w.error = fmt::format("{}: cannot create a temporary file in {}: {}", path, dir.string(),
+    error = fmt::format("{}: cannot create a temporary file in {}: {}", path, dir.string(),
                           std::strerror(errno));
-    return w;
+    return false;
   }
   std::size_t written = 0;
   while (written < bytes.size()) {
@@ -945,23 +933,41 @@ WriteResult write_mesh_file(const Mesh& mesh, const std::string& path,
   ::close(fd);
   if (!synced) {
     ::unlink(tmp.c_str());
-    w.ok = false;
-    w.error = fmt::format("{}: writing failed: {}", path, std::strerror(write_errno));
-    return w;
+    error = fmt::format("{}: writing failed: {}", path, std::strerror(write_errno));
+    return false;
   }
   if (::rename(tmp.c_str(), target.c_str()) != 0) {
     const int e = errno;
     ::unlink(tmp.c_str());
-    w.ok = false;
-    w.error =
+    error =
         fmt::format("{}: cannot rename the temporary file into place: {}", path, std::strerror(e));
-    return w;
+    return false;
   }
   // Make the rename itself durable.
   const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dfd >= 0) {
     ::fsync(dfd);
     ::close(dfd);
+  }
+  return true;
+}
+
+WriteResult write_mesh_file(const Mesh& mesh, const std::string& path,
+                            const WriteOptions& options) {
+  WriteResult w;
+  MeshFormat format;
+  if (!format_from_path(path, format)) {
+    w.error =
+        fmt::format("{}: unknown mesh file extension (expected .stl, .obj, .off or .ply)", path);
+    return w;
+  }
+  std::string bytes;
+  w = serialize_mesh(mesh, format, options, bytes);
+  if (!w.ok) return w;
+  std::string error;
+  if (!write_file_atomically(path, bytes, error)) {
+    w.ok = false;
+    w.error = error;
   }
   return w;
 }

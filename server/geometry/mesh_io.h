@@ -79,4 +79,9 @@ WriteResult serialize_mesh(const Mesh& mesh, MeshFormat format, const WriteOptio
 WriteResult write_mesh_file(const Mesh& mesh, const std::string& path,
                             const WriteOptions& options = {});
 
+//! Writes \p bytes to \p path atomically (temporary file in the same directory, fsync,
+//! rename, fsync of the directory). On failure \p error names the problem and any existing
+//! file at \p path is untouched.
+bool write_file_atomically(const std::string& path, std::string_view bytes, std::string& error);
+
 }  // namespace touchmend::geometry

@@ -1,0 +1,425 @@
+// The `touchmend` subcommands that run against a touchmend-server (--server).
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "client/cli/commands.h"
+#include "client/net/repair_client.h"
+#include "server/geometry/mesh_io.h"
+
+namespace touchmend::cli {
+namespace {
+
+using net::Status;
+using net::StatusCode;
+
+//! Maps a server status to the CLI's exit codes: the caller's input is wrong (1) or the
+//! server is (4).
+int exit_for(const Status& s) {
+  switch (s.code) {
+    case StatusCode::InvalidArgument:
+    case StatusCode::NotFound:
+    case StatusCode::FailedPrecondition:
+    case StatusCode::OutOfRange:
+      return kExitBadInput;
+    default:
+      return kExitServer;
+  }
+}
+
+int report(const Status& s, std::ostream& err, const std::string& what) {
+  err << "error: " << what << ": " << s.to_string() << "\n";
+  return exit_for(s);
+}
+
+std::shared_ptr<net::Channel> connect(const RemoteArgs& remote, std::ostream& err, int& code) {
+  net::ChannelOptions options;
+  std::string error;
+  if (!net::parse_server_address(remote.server, options, error)) {
+    err << "error: --server: " << error << "\n";
+    code = kExitUsage;
+    return nullptr;
+  }
+  options.token = remote.token;
+  if (options.token.empty()) {
+    if (const char* env = std::getenv("TOUCHMEND_TOKEN")) options.token = env;
+  }
+  options.tls = remote.tls || !remote.tls_ca.empty();
+  options.tls_ca = remote.tls_ca;
+  Status status;
+  auto channel = net::Channel::connect(options, status);
+  if (!channel) {
+    err << "error: " << remote.server << ": " << status.to_string() << "\n";
+    code = kExitServer;
+  }
+  return channel;
+}
+
+bool read_file(const std::string& path, std::string& bytes, std::ostream& err) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    err << "error: " << path << ": cannot open the file\n";
+    return false;
+  }
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  bytes = buffer.str();
+  return true;
+}
+
+bool wire_format(const std::string& path, v1::MeshFormat& format) {
+  geometry::MeshFormat f;
+  if (!geometry::format_from_path(path, f)) return false;
+  static const v1::MeshFormat map[] = {v1::OFF, v1::OBJ, v1::PLY, v1::STL};
+  format = map[static_cast<int>(f)];
+  return true;
+}
+
+bool make_selection(const FillArgs& args, v1::HoleSelection& selection, v1::FillOptions& options,
+                    std::ostream& err) {
+  const int modes = (args.all ? 1 : 0) + (args.hole_ids.empty() ? 0 : 1) + (args.near ? 1 : 0);
+  if (modes != 1) {
+    err << "error: choose exactly one of --all, --hole ID... or --near X,Y,Z\n";
+    return false;
+  }
+  if (args.all) selection.set_all(true);
+  for (auto id : args.hole_ids) selection.mutable_ids()->add_ids(id);
+  if (args.near) {
+    selection.mutable_near()->set_x((*args.near)[0]);
+    selection.mutable_near()->set_y((*args.near)[1]);
+    selection.mutable_near()->set_z((*args.near)[2]);
+  }
+  options.set_refine_iterations(static_cast<std::uint32_t>(args.refine_iterations));
+  options.set_max_boundary(static_cast<std::uint32_t>(args.max_boundary));
+  if (args.shape == "flat") options.set_shape(v1::PATCH_SHAPE_FLAT);
+  else if (args.shape == "fair") options.set_shape(v1::PATCH_SHAPE_FAIR);
+  else if (args.shape == "auto") options.set_shape(v1::PATCH_SHAPE_AUTO);
+  else {
+    err << "error: --shape must be flat, fair or auto\n";
+    return false;
+  }
+  return true;
+}
+
+nlohmann::json hole_json(const v1::Hole& h) {
+  return {{"id", h.id()},
+          {"boundary_edges", h.boundary_edges()},
+          {"perimeter", h.perimeter()},
+          {"area", h.area()},
+          {"simple", h.simple()},
+          {"centroid", {h.centroid().x(), h.centroid().y(), h.centroid().z()}},
+          {"normal", {h.normal().x(), h.normal().y(), h.normal().z()}},
+          {"loop", std::vector<std::uint32_t>(h.loop().begin(), h.loop().end())},
+          {"unfillable_reason", h.unfillable_reason()}};
+}
+
+nlohmann::json fill_json(const v1::HoleFillResult& r) {
+  return {{"hole_id", r.hole_id()},         {"boundary_vertices", r.boundary_vertices()},
+          {"filled", r.filled()},           {"skipped", r.skipped()},
+          {"reason", r.reason()},           {"method", r.method()},
+          {"shape", r.shape()},             {"shape_reason", r.shape_reason()},
+          {"faces_added", r.faces_added()}, {"vertices_added", r.vertices_added()},
+          {"seconds", r.seconds()}};
+}
+
+std::string fill_line(const v1::HoleFillResult& r) {
+  if (r.skipped()) return fmt::format("hole {:>6}: skipped ({})\n", r.hole_id(), r.reason());
+  if (!r.filled()) return fmt::format("hole {:>6}: LEFT OPEN: {}\n", r.hole_id(), r.reason());
+  return fmt::format("hole {:>6}: filled, {} boundary edges, method {}, shape {} ({}), {} faces and {} vertices added, {:.2f} ms\n",
+                     r.hole_id(), r.boundary_vertices(), r.method(), r.shape(), r.shape_reason(), r.faces_added(),
+                     r.vertices_added(), r.seconds() * 1e3);
+}
+
+void print_fill_report(const v1::FillReport& report, bool json, const nlohmann::json& extra, std::ostream& out) {
+  std::size_t filled = 0, open = 0, skipped = 0;
+  for (const auto& h : report.holes()) {
+    filled += h.filled();
+    skipped += h.skipped();
+    open += !h.filled() && !h.skipped();
+  }
+  if (json) {
+    nlohmann::json holes = nlohmann::json::array();
+    for (const auto& h : report.holes()) holes.push_back(fill_json(h));
+    nlohmann::json j = extra;
+    j["holes_found"] = report.holes_found();
+    j["selected"] = report.holes_size();
+    j["filled"] = filled;
+    j["left_open"] = open;
+    j["skipped"] = skipped;
+    j["holes"] = holes;
+    out << j.dump(2) << "\n";
+    return;
+  }
+  for (const auto& h : report.holes()) out << fill_line(h);
+  out << fmt::format("filled {} of {} selected holes ({} left open, {} skipped; {} holes in the mesh)\n", filled,
+                     report.holes_size(), open, skipped, report.holes_found());
+}
+
+std::size_t left_open(const v1::FillReport& report) {
+  std::size_t open = 0;
+  for (const auto& h : report.holes()) open += !h.filled() && !h.skipped();
+  return open;
+}
+
+//! A temporary session holding the uploaded file; closed (deleted) on scope exit.
+struct TemporarySession {
+  net::RepairClient& client;
+  std::string id;
+  ~TemporarySession() {
+    if (!id.empty()) client.close_session(id);
+  }
+};
+
+int upload_into_session(net::RepairClient& client, const std::string& file, TemporarySession& session,
+                        std::ostream& err) {
+  v1::MeshFormat format;
+  if (!wire_format(file, format)) {
+    err << "error: " << file << ": unknown mesh file extension (expected .stl, .obj, .off or .ply)\n";
+    return kExitBadInput;
+  }
+  std::string bytes;
+  if (!read_file(file, bytes, err)) return kExitBadInput;
+  v1::SessionInfo info;
+  if (Status s = client.create_session("touchmend " + file, info); !s.is_ok()) {
+    return report(s, err, "create session");
+  }
+  session.id = info.session_id();
+  v1::LoadMeshResponse loaded;
+  const auto slash = file.find_last_of('/');
+  if (Status s = client.upload_mesh(session.id, bytes, format, slash == std::string::npos ? file : file.substr(slash + 1),
+                                    loaded);
+      !s.is_ok()) {
+    return report(s, err, file);
+  }
+  return kExitOk;
+}
+
+bool write_output(const std::string& path, const std::string& bytes, std::ostream& err) {
+  std::string error;
+  if (!geometry::write_file_atomically(path, bytes, error)) {
+    err << "error: " << error << "\n";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err) {
+  int code = kExitOk;
+  auto channel = connect(remote, err, code);
+  if (!channel) return code;
+  net::RepairClient client(channel);
+  TemporarySession session{client, {}};
+  if (int c = upload_into_session(client, args.file, session, err); c != kExitOk) return c;
+  v1::ListHolesResponse holes;
+  if (Status s = client.list_holes(session.id, holes); !s.is_ok()) return report(s, err, "list holes");
+  if (args.json) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& h : holes.holes()) list.push_back(hole_json(h));
+    out << nlohmann::json{{"file", args.file}, {"server", remote.server}, {"holes", list}}.dump(2) << "\n";
+    return kExitOk;
+  }
+  if (holes.holes().empty()) {
+    out << "no holes: the mesh is closed\n";
+    return kExitOk;
+  }
+  out << fmt::format("{:>8} {:>6} {:>12} {:>12} {:>8}  {}\n", "id", "edges", "perimeter", "area", "kind", "centroid");
+  for (const auto& h : holes.holes()) {
+    out << fmt::format("{:>8} {:>6} {:>12.6g} {:>12.6g} {:>8}  ({:.6g}, {:.6g}, {:.6g}){}\n", h.id(),
+                       h.boundary_edges(), h.perimeter(), h.area(), h.simple() ? "simple" : "complex",
+                       h.centroid().x(), h.centroid().y(), h.centroid().z(),
+                       h.unfillable_reason().empty() ? "" : "  unfillable: " + h.unfillable_reason());
+  }
+  return kExitOk;
+}
+
+int run_fill_remote(const FillArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err) {
+  v1::MeshFormat out_format;
+  if (!wire_format(args.output, out_format)) {
+    err << "error: " << args.output << ": unknown output extension (expected .stl, .obj, .off or .ply)\n";
+    return kExitUsage;
+  }
+  v1::FillHolesRequest request;
+  if (!make_selection(args, *request.mutable_selection(), *request.mutable_options(), err)) return kExitUsage;
+  int code = kExitOk;
+  auto channel = connect(remote, err, code);
+  if (!channel) return code;
+  net::RepairClient client(channel);
+  TemporarySession session{client, {}};
+  if (int c = upload_into_session(client, args.file, session, err); c != kExitOk) return c;
+  request.set_session_id(session.id);
+  v1::EditResponse edit;
+  if (Status s = client.fill_holes(request, edit); !s.is_ok()) return report(s, err, args.file);
+  std::string bytes;
+  if (Status s = client.export_mesh(session.id, out_format, args.binary, bytes); !s.is_ok()) {
+    return report(s, err, "export");
+  }
+  if (!write_output(args.output, bytes, err)) return kExitBadInput;
+  print_fill_report(edit.report(), args.json,
+                    {{"input", args.file}, {"output", args.output}, {"server", remote.server}, {"version", edit.version()}},
+                    out);
+  if (!args.json) out << fmt::format("wrote {}\n", args.output);
+  return args.strict && left_open(edit.report()) > 0 ? kExitLeftOpen : kExitOk;
+}
+
+namespace {
+
+nlohmann::json job_json(const v1::Job& job) {
+  nlohmann::json j = {{"job_id", job.job_id()},
+                      {"state", v1::JobState_Name(job.state())},
+                      {"progress", job.progress()},
+                      {"stage", job.stage()},
+                      {"name", job.name()},
+                      {"attempts", job.attempts()},
+                      {"created_unix_ms", job.created_unix_ms()},
+                      {"finished_unix_ms", job.finished_unix_ms()},
+                      {"result_bytes", job.result_bytes()}};
+  if (job.has_error() && job.error().code() != 0) {
+    j["error"] = {{"code", rpc::to_string(rpc::status_code_from_int(job.error().code()))},
+                  {"message", job.error().message()}};
+  }
+  return j;
+}
+
+void print_job(const v1::Job& job, bool json, std::ostream& out) {
+  if (json) {
+    out << job_json(job).dump(2) << "\n";
+    return;
+  }
+  out << fmt::format("job {}  {}  {:.0f}%  {}{}\n", job.job_id(), v1::JobState_Name(job.state()), job.progress() * 100,
+                     job.name(),
+                     job.has_error() && job.error().code() != 0 ? "  error: " + job.error().message() : "");
+}
+
+int job_exit(const v1::Job& job) {
+  switch (job.state()) {
+    case v1::SUCCEEDED: return kExitOk;
+    case v1::FAILED: {
+      const auto code = rpc::status_code_from_int(job.error().code());
+      return code == StatusCode::InvalidArgument || code == StatusCode::NotFound ? kExitBadInput : kExitServer;
+    }
+    default: return kExitServer;
+  }
+}
+
+int wait_for_job(net::RepairClient& client, const std::string& id, const std::string& output, bool json,
+                 std::ostream& out, std::ostream& err) {
+  auto stream = client.watch_job(id);
+  v1::Job job;
+  bool have = false;
+  const bool show_progress = !json && &err == &std::cerr && ::isatty(STDERR_FILENO) != 0;
+  while (stream->read(job, std::chrono::hours(24))) {
+    have = true;
+    if (show_progress) err << fmt::format("job {}: {} {:.0f}%\r", id, v1::JobState_Name(job.state()), job.progress() * 100) << std::flush;
+  }
+  if (show_progress) err << "\n";
+  if (Status s = stream->status(); !s.is_ok()) return report(s, err, "job " + id);
+  if (!have) return report({StatusCode::Internal, "no job state received"}, err, "job " + id);
+  if (job.state() == v1::SUCCEEDED && !output.empty()) {
+    std::string bytes;
+    if (Status s = client.fetch_job_result(id, bytes); !s.is_ok()) return report(s, err, "fetch");
+    if (!write_output(output, bytes, err)) return kExitBadInput;
+  }
+  if (job.state() == v1::SUCCEEDED) {
+    print_fill_report(job.report(), json, {{"job_id", id}, {"output", output}}, out);
+    if (!json && !output.empty()) out << fmt::format("wrote {}\n", output);
+  } else {
+    print_job(job, json, out);
+  }
+  return job_exit(job);
+}
+
+}  // namespace
+
+int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err) {
+  if (remote.server.empty()) {
+    err << "error: jobs run on a server: add --server HOST:PORT\n";
+    return kExitUsage;
+  }
+  if (args.action != "submit" && args.action != "list" && args.job_id.empty()) {
+    err << "error: job " << args.action << " needs a job id\n";
+    return kExitUsage;
+  }
+  if (args.action == "fetch" && args.fill.output.empty()) {
+    err << "error: job fetch needs -o OUT\n";
+    return kExitUsage;
+  }
+  v1::JobSpec spec;
+  std::string bytes;
+  if (args.action == "submit") {
+    v1::MeshFormat format;
+    if (!wire_format(args.fill.file, format)) {
+      err << "error: " << args.fill.file << ": unknown mesh file extension (expected .stl, .obj, .off or .ply)\n";
+      return kExitBadInput;
+    }
+    if (!args.fill.output.empty() && !args.wait) {
+      err << "error: -o needs --wait (or fetch the result later with `job fetch ID -o OUT`)\n";
+      return kExitUsage;
+    }
+    if (!make_selection(args.fill, *spec.mutable_selection(), *spec.mutable_options(), err)) return kExitUsage;
+    spec.set_format(format);
+    spec.set_binary_output(args.fill.binary);
+    const auto slash = args.fill.file.find_last_of('/');
+    spec.set_name(slash == std::string::npos ? args.fill.file : args.fill.file.substr(slash + 1));
+    if (!read_file(args.fill.file, bytes, err)) return kExitBadInput;
+  }
+  int code = kExitOk;
+  auto channel = connect(remote, err, code);
+  if (!channel) return code;
+  net::RepairClient client(channel);
+  v1::Job job;
+  if (args.action == "submit") {
+    if (Status s = client.submit_job(spec, bytes, job); !s.is_ok()) return report(s, err, "submit");
+    if (!args.wait) {
+      if (args.fill.json) {
+        out << job_json(job).dump(2) << "\n";
+      } else {
+        out << job.job_id() << "\n";
+      }
+      return kExitOk;
+    }
+    return wait_for_job(client, job.job_id(), args.fill.output, args.fill.json, out, err);
+  }
+  if (args.action == "status") {
+    if (Status s = client.get_job(args.job_id, job); !s.is_ok()) return report(s, err, "job " + args.job_id);
+    print_job(job, args.fill.json, out);
+    return kExitOk;
+  }
+  if (args.action == "wait") return wait_for_job(client, args.job_id, args.fill.output, args.fill.json, out, err);
+  if (args.action == "cancel") {
+    if (Status s = client.cancel_job(args.job_id, job); !s.is_ok()) return report(s, err, "job " + args.job_id);
+    print_job(job, args.fill.json, out);
+    return kExitOk;
+  }
+  if (args.action == "fetch") {
+    std::string result;
+    if (Status s = client.fetch_job_result(args.job_id, result); !s.is_ok()) return report(s, err, "job " + args.job_id);
+    if (!write_output(args.fill.output, result, err)) return kExitBadInput;
+    out << fmt::format("wrote {} ({} bytes)\n", args.fill.output, result.size());
+    return kExitOk;
+  }
+  if (args.action == "list") {
+    v1::ListJobsResponse list;
+    if (Status s = client.list_jobs(list); !s.is_ok()) return report(s, err, "list jobs");
+    if (args.fill.json) {
+      nlohmann::json j = nlohmann::json::array();
+      for (const auto& jb : list.jobs()) j.push_back(job_json(jb));
+      out << j.dump(2) << "\n";
+    } else {
+      for (const auto& jb : list.jobs()) print_job(jb, false, out);
+    }
+    return kExitOk;
+  }
+  err << "error: unknown job action " << args.action << " (submit, status, wait, cancel, fetch, list)\n";
+  return kExitUsage;
+}
+
+}  // namespace touchmend::cli
