@@ -1,0 +1,618 @@
+// Integration tests: real touchmend-server processes on loopback, real clients.
+
+#include <signal.h>
+
+#include <atomic>
+#include <random>
+#include <future>
+#include <thread>
+
+#include <boost/asio.hpp>
+#include <gtest/gtest.h>
+
+#include "proto/rpc/frame_codec.h"
+#include "proto/rpc/method_table.h"
+#include "server/geometry/hole_filling.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_io.h"
+#include "tests/integration/server_process.h"
+#include "tests/support/mesh_factory.h"
+
+namespace touchmend::testing {
+namespace {
+
+using namespace std::chrono_literals;
+using net::RepairClient;
+using net::Status;
+using net::StatusCode;
+namespace asio = boost::asio;
+
+std::string sample_mesh() { return read_binary_file(TOUCHMEND_SAMPLE_MESH); }
+
+//! A session with the bundled Spot sample (3 holes) loaded.
+std::string make_session(RepairClient& client, const std::string& name = "test") {
+  v1::SessionInfo info;
+  EXPECT_TRUE(client.create_session(name, info).is_ok());
+  v1::LoadMeshResponse loaded;
+  const Status s = client.upload_mesh(info.session_id(), sample_mesh(), v1::OFF, "spot-holed.off", loaded);
+  EXPECT_TRUE(s.is_ok()) << s.to_string();
+  return info.session_id();
+}
+
+v1::FillHolesRequest fill_request(const std::string& session, std::uint32_t hole) {
+  v1::FillHolesRequest r;
+  r.set_session_id(session);
+  r.mutable_selection()->mutable_ids()->add_ids(hole);
+  return r;
+}
+
+//! The in-process fill the CLI would do, serialized like a job's result.
+std::string in_process_fill_all(const std::string& bytes, geometry::MeshFormat format) {
+  auto read = geometry::parse_mesh(bytes, format);
+  auto mesh = geometry::build_mesh(read.soup).mesh;
+  geometry::FillSelection all;
+  geometry::fill_holes(mesh, all, {});
+  mesh.garbage_collection();
+  std::string out;
+  geometry::serialize_mesh(mesh, format, {}, out);
+  return out;
+}
+
+//! Opens a raw TCP connection; sends \p bytes; returns everything the server sends until it
+//! closes (or \p timeout passes: then timed_out is set).
+struct RawResult {
+  std::string received;
+  bool closed_by_server = false;
+};
+RawResult raw_exchange(std::uint16_t port, const std::string& bytes, std::chrono::milliseconds timeout,
+                       bool close_after_send = false) {
+  asio::io_context io;
+  asio::ip::tcp::socket socket(io);
+  socket.connect({asio::ip::make_address("127.0.0.1"), port});
+  if (!bytes.empty()) asio::write(socket, asio::buffer(bytes));
+  RawResult result;
+  if (close_after_send) {
+    socket.close();
+    return result;
+  }
+  std::array<char, 4096> buf;
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  socket.non_blocking(true);
+  while (std::chrono::steady_clock::now() < deadline) {
+    boost::system::error_code ec;
+    const std::size_t n = socket.read_some(asio::buffer(buf), ec);
+    if (ec == asio::error::would_block) {
+      std::this_thread::sleep_for(5ms);
+      continue;
+    }
+    if (ec) {
+      result.closed_by_server = true;
+      break;
+    }
+    result.received.append(buf.data(), n);
+  }
+  return result;
+}
+
+std::vector<v1::Frame> decode_all(const std::string& bytes) {
+  rpc::FrameDecoder decoder;
+  decoder.feed(bytes);
+  std::vector<v1::Frame> frames;
+  v1::Frame f;
+  while (decoder.next(f) == rpc::FrameDecoder::Result::Frame) frames.push_back(f);
+  return frames;
+}
+
+bool server_answers(const ServerProcess& server) {
+  auto channel = server.connect();
+  if (!channel) return false;
+  RepairClient client(channel);
+  v1::HealthResponse health;
+  return client.health(health).is_ok() && health.serving();
+}
+
+// ---------------------------------------------------------------------------------------
+
+TEST(Service, TwoClientsOnOneSessionSeeEachOthersEditsAndUndoRedo) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel_a = server.connect();
+  auto channel_b = server.connect();
+  ASSERT_TRUE(channel_a && channel_b);
+  RepairClient a(channel_a), b(channel_b);
+  const std::string session = make_session(a, "shared");
+
+  v1::SessionInfo opened;
+  ASSERT_TRUE(b.open_session(session, opened).is_ok());
+  net::SessionReplica replica_b(b, session);
+  ASSERT_TRUE(replica_b.start().is_ok());
+  const std::size_t faces_before = replica_b.document().alive_faces();
+
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(a.list_holes(session, holes).is_ok());
+  ASSERT_EQ(holes.holes_size(), 3);
+  v1::EditResponse filled;
+  const Status fill_status = a.fill_holes(fill_request(session, holes.holes(1).id()), filled);
+  ASSERT_TRUE(fill_status.is_ok()) << fill_status.to_string();
+  ASSERT_EQ(filled.report().holes_size(), 1);
+  EXPECT_TRUE(filled.report().holes(0).filled());
+
+  // B receives the delta and ends with the server's mesh, slot for slot.
+  ASSERT_TRUE(replica_b.wait_for_version(filled.version(), 10s).is_ok());
+  rpc::MeshDocument server_doc;
+  ASSERT_TRUE(a.download_document(session, server_doc).is_ok());
+  EXPECT_EQ(replica_b.document(), server_doc);
+  EXPECT_EQ(replica_b.document().alive_faces(), faces_before + filled.report().holes(0).faces_added());
+  const rpc::MeshDocument after_fill = server_doc;
+
+  // The filled hole is gone for everyone.
+  ASSERT_TRUE(b.list_holes(session, holes).is_ok());
+  EXPECT_EQ(holes.holes_size(), 2);
+
+  // Undo (by B) and redo (by A) reach both.
+  net::SessionReplica replica_a(a, session);
+  ASSERT_TRUE(replica_a.start().is_ok());
+  v1::EditResponse undone;
+  ASSERT_TRUE(b.undo(session, undone).is_ok());
+  ASSERT_TRUE(replica_a.wait_for_version(undone.version(), 10s).is_ok());
+  ASSERT_TRUE(replica_b.wait_for_version(undone.version(), 10s).is_ok());
+  EXPECT_EQ(replica_a.document(), replica_b.document());
+  EXPECT_EQ(replica_a.document().alive_faces(), faces_before);
+  ASSERT_TRUE(a.list_holes(session, holes).is_ok());
+  EXPECT_EQ(holes.holes_size(), 3);
+
+  v1::EditResponse redone;
+  ASSERT_TRUE(a.redo(session, redone).is_ok());
+  ASSERT_TRUE(replica_a.wait_for_version(redone.version(), 10s).is_ok());
+  ASSERT_TRUE(replica_b.wait_for_version(redone.version(), 10s).is_ok());
+  EXPECT_EQ(replica_a.document(), replica_b.document());
+  rpc::MeshDocument expected = after_fill;
+  expected.version = redone.version();
+  EXPECT_EQ(replica_b.document(), expected);
+
+  // Nothing more to redo: a clear status, not a crash.
+  v1::EditResponse none;
+  EXPECT_EQ(a.redo(session, none).code, StatusCode::FailedPrecondition);
+
+  // The exported mesh is closed where it was filled and parses.
+  std::string exported;
+  ASSERT_TRUE(b.export_mesh(session, v1::PLY, true, exported).is_ok());
+  auto parsed = geometry::parse_mesh(exported, geometry::MeshFormat::Ply);
+  ASSERT_TRUE(parsed.ok) << parsed.error;
+  EXPECT_EQ(parsed.soup.triangles.size(), expected.alive_faces());
+}
+
+TEST(Service, FillJobLifecycleMatchesTheInProcessFill) {
+  TempDir dir;
+  ServerProcess server(dir.path(), {"--job-workers", "1"});
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient client(channel);
+
+  v1::JobSpec spec;
+  spec.set_format(v1::OFF);
+  spec.set_name("spot");
+  spec.mutable_selection()->set_all(true);
+  v1::Job job;
+  ASSERT_TRUE(client.submit_job(spec, sample_mesh(), job).is_ok());
+  EXPECT_FALSE(job.job_id().empty());
+  auto watch = client.watch_job(job.job_id());
+  double last_progress = -1;
+  v1::Job state;
+  while (watch->read(state, 60s)) {
+    EXPECT_GE(state.progress(), last_progress);
+    last_progress = state.progress();
+  }
+  ASSERT_TRUE(watch->status().is_ok()) << watch->status().to_string();
+  ASSERT_EQ(state.state(), v1::SUCCEEDED) << state.error().message();
+  EXPECT_EQ(state.report().holes_size(), 3);
+  std::string result;
+  ASSERT_TRUE(client.fetch_job_result(job.job_id(), result).is_ok());
+  EXPECT_EQ(result, in_process_fill_all(sample_mesh(), geometry::MeshFormat::Off));
+
+  // Cancel a queued job: a long job occupies the only worker.
+  v1::JobSpec slow = spec;
+  slow.set_format(v1::OBJ);
+  slow.mutable_options()->set_shape(v1::PATCH_SHAPE_FAIR);
+  const std::string bunny = read_binary_file(shared_data() / "meshes/stanford-bunny.obj");
+  v1::Job running, queued, cancelled;
+  ASSERT_TRUE(client.submit_job(slow, bunny, running).is_ok());
+  ASSERT_TRUE(client.submit_job(spec, sample_mesh(), queued).is_ok());
+  ASSERT_TRUE(client.cancel_job(queued.job_id(), cancelled).is_ok());
+  EXPECT_EQ(cancelled.state(), v1::CANCELLED);
+  ASSERT_TRUE(client.get_job(queued.job_id(), cancelled).is_ok());
+  EXPECT_EQ(cancelled.state(), v1::CANCELLED);
+  std::string none;
+  EXPECT_EQ(client.fetch_job_result(queued.job_id(), none).code, StatusCode::FailedPrecondition);
+  EXPECT_EQ(client.get_job("no-such-job", cancelled).code, StatusCode::NotFound);
+  v1::ListJobsResponse list;
+  ASSERT_TRUE(client.list_jobs(list).is_ok());
+  EXPECT_EQ(list.jobs_size(), 3);
+}
+
+TEST(Service, FullJobQueueAnswersBusy) {
+  TempDir dir;
+  ServerProcess server(dir.path(), {"--job-workers", "1", "--job-queue", "1"});
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient client(channel);
+  v1::JobSpec spec;
+  spec.set_format(v1::OBJ);
+  spec.mutable_selection()->set_all(true);
+  spec.mutable_options()->set_shape(v1::PATCH_SHAPE_FAIR);
+  const std::string bunny = read_binary_file(shared_data() / "meshes/stanford-bunny.obj");
+  // Each job takes far longer than a submission: at most one runs and one waits.
+  int busy = 0;
+  for (int i = 0; i < 5; ++i) {
+    v1::Job job;
+    const Status s = client.submit_job(spec, bunny, job);
+    if (!s.is_ok()) {
+      EXPECT_EQ(s.code, StatusCode::ResourceExhausted);
+      EXPECT_NE(s.message.find("busy"), std::string::npos) << s.message;
+      ++busy;
+    }
+  }
+  EXPECT_GE(busy, 2);
+  EXPECT_TRUE(server_answers(server));
+}
+
+TEST(Service, MalformedFramesCloseOnlyThatConnection) {
+  TempDir dir;
+  ServerProcess server(dir.path(), {"--hello-timeout-ms", "500"});
+  ASSERT_TRUE(server.start()) << server.log();
+
+  // Random bytes.
+  std::mt19937 rng(7);
+  std::string garbage(4096, '\0');
+  for (auto& c : garbage) c = static_cast<char>(rng());
+  garbage[0] = 0x05;  // a small first length, so the body is parsed (and fails) at once
+  RawResult r = raw_exchange(server.port(), garbage, 5s);
+  EXPECT_TRUE(r.closed_by_server);
+  EXPECT_TRUE(server_answers(server));
+
+  // A length prefix over the limit: GOAWAY RESOURCE_EXHAUSTED before any allocation.
+  std::string huge;
+  rpc::append_varint(std::uint64_t{1} << 30, huge);
+  r = raw_exchange(server.port(), huge, 5s);
+  EXPECT_TRUE(r.closed_by_server);
+  auto frames = decode_all(r.received);
+  ASSERT_FALSE(frames.empty());
+  EXPECT_EQ(frames.back().kind(), v1::GOAWAY);
+  EXPECT_EQ(frames.back().status().code(), static_cast<int>(StatusCode::ResourceExhausted));
+
+  // A 6-byte varint.
+  r = raw_exchange(server.port(), std::string("\xff\xff\xff\xff\xff\x01", 6), 5s);
+  EXPECT_TRUE(r.closed_by_server);
+
+  // A truncated frame, then the client vanishes.
+  v1::Frame hello;
+  hello.set_kind(v1::HELLO);
+  hello.set_protocol_version(1);
+  hello.set_token(std::string(100, 'x'));
+  const std::string encoded = rpc::encode_frame(hello);
+  raw_exchange(server.port(), encoded.substr(0, encoded.size() / 2), 0ms, true);
+
+  // A client that connects and never sends is dropped after the HELLO timeout.
+  const auto start = std::chrono::steady_clock::now();
+  r = raw_exchange(server.port(), "", 10s);
+  EXPECT_TRUE(r.closed_by_server);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 8s);
+
+  // A frame before HELLO.
+  v1::Frame call;
+  call.set_kind(v1::CALL);
+  call.set_call_id(1);
+  call.set_method(rpc::method_path("Health"));
+  r = raw_exchange(server.port(), rpc::encode_frame(call), 5s);
+  EXPECT_TRUE(r.closed_by_server);
+  frames = decode_all(r.received);
+  ASSERT_FALSE(frames.empty());
+  EXPECT_EQ(frames.back().status().code(), static_cast<int>(StatusCode::Unauthenticated));
+
+  EXPECT_TRUE(server_answers(server));
+}
+
+TEST(Service, BadRequestsGetAStatusAndTheServerKeepsServing) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient client(channel);
+
+  // Unknown method.
+  v1::HealthResponse out;
+  EXPECT_EQ(channel->unary("/touchmend.v1.Repair/NoSuchMethod", v1::HealthRequest(), out).code,
+            StatusCode::Unimplemented);
+
+  v1::SessionInfo info;
+  ASSERT_TRUE(client.create_session("bad input", info).is_ok());
+  const std::string session = info.session_id();
+  v1::LoadMeshResponse loaded;
+  // NaN coordinates.
+  Status s = client.upload_mesh(session, "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", v1::OFF, "nan.off", loaded);
+  EXPECT_EQ(s.code, StatusCode::InvalidArgument) << s.to_string();
+  // Out-of-range index.
+  s = client.upload_mesh(session, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", v1::OFF, "index.off", loaded);
+  EXPECT_EQ(s.code, StatusCode::InvalidArgument) << s.to_string();
+  // Upload of another format than declared, and an unknown format.
+  s = client.upload_mesh(session, "solid x\nendsolid\n", v1::MESH_FORMAT_UNSPECIFIED, "x", loaded);
+  EXPECT_EQ(s.code, StatusCode::InvalidArgument);
+  // Fill before any mesh was loaded.
+  v1::EditResponse edit;
+  EXPECT_EQ(client.fill_holes(fill_request(session, 0), edit).code, StatusCode::FailedPrecondition);
+
+  // Unknown session, unknown hole, NaN point.
+  EXPECT_EQ(client.fill_holes(fill_request("nope", 0), edit).code, StatusCode::NotFound);
+  const std::string spot = make_session(client);
+  s = client.fill_holes(fill_request(spot, 999999), edit);
+  EXPECT_EQ(s.code, StatusCode::NotFound);
+  EXPECT_NE(s.message.find("999999"), std::string::npos);
+  v1::Point3 nan_point;
+  nan_point.set_x(std::nan(""));
+  v1::FindNearestHoleResponse nearest;
+  EXPECT_EQ(client.find_nearest_hole(spot, nan_point, nearest).code, StatusCode::InvalidArgument);
+  v1::FillHolesRequest bad_options = fill_request(spot, 12);
+  bad_options.mutable_options()->set_refine_iterations(9);
+  EXPECT_EQ(client.fill_holes(bad_options, edit).code, StatusCode::InvalidArgument);
+  // A server-side path may not leave the data dir.
+  EXPECT_EQ(client.load_server_mesh(spot, "../../etc/passwd.off", loaded).code, StatusCode::InvalidArgument);
+  EXPECT_EQ(client.load_server_mesh(spot, "/etc/passwd.off", loaded).code, StatusCode::InvalidArgument);
+
+  // An upload cut off halfway (the client disconnects): nothing is loaded.
+  {
+    auto cut = server.connect();
+    ASSERT_TRUE(cut);
+    const std::string bytes = sample_mesh();
+    v1::MeshChunk first;
+    first.mutable_header()->set_session_id(session);
+    first.mutable_header()->set_format(v1::OFF);
+    first.mutable_header()->set_total_bytes(bytes.size());
+    first.set_data(bytes.substr(0, bytes.size() / 2));
+    auto call = cut->start_call("UploadMesh", first.SerializeAsString(), false, 0ms, nullptr, nullptr);
+    std::this_thread::sleep_for(100ms);
+    cut->close();
+  }
+  // ... and an upload that ends early on a live connection is refused with the byte counts.
+  {
+    const std::string bytes = sample_mesh();
+    v1::MeshChunk first;
+    first.mutable_header()->set_session_id(session);
+    first.mutable_header()->set_format(v1::OFF);
+    first.mutable_header()->set_total_bytes(bytes.size());
+    first.set_data(bytes.substr(0, 100));
+    std::promise<Status> done;
+    auto call = channel->start_call("UploadMesh", first.SerializeAsString(), true, 10s, nullptr,
+                                    [&done](Status st) { done.set_value(st); });
+    const Status cut_status = done.get_future().get();
+    EXPECT_EQ(cut_status.code, StatusCode::InvalidArgument);
+    EXPECT_NE(cut_status.message.find("cut off"), std::string::npos) << cut_status.message;
+  }
+  ASSERT_TRUE(client.open_session(session, info).is_ok());
+  EXPECT_EQ(info.faces(), 0u);
+  EXPECT_TRUE(server_answers(server));
+}
+
+TEST(Service, TokensAndSessionAccess) {
+  TempDir dir;
+  const auto tokens = dir.path() / "tokens";
+  write_binary_file(tokens, "# principal token\nalice alice-token-0123456789\nbob bob-token-0123456789abc\n");
+  ServerProcess server(dir.path() / "srv", {"--tokens", tokens.string()});
+  ASSERT_TRUE(server.start()) << server.log();
+
+  Status status;
+  EXPECT_EQ(net::Channel::connect(server.options(""), status), nullptr);
+  EXPECT_EQ(status.code, StatusCode::Unauthenticated);
+  EXPECT_EQ(net::Channel::connect(server.options("wrong-token-0123456789"), status), nullptr);
+  EXPECT_EQ(status.code, StatusCode::Unauthenticated);
+
+  auto alice_channel = server.connect("alice-token-0123456789");
+  auto bob_channel = server.connect("bob-token-0123456789abc");
+  ASSERT_TRUE(alice_channel && bob_channel);
+  EXPECT_EQ(alice_channel->principal(), "alice");
+  RepairClient alice(alice_channel), bob(bob_channel);
+  const std::string session = make_session(alice, "alice's");
+
+  v1::SessionInfo info;
+  EXPECT_EQ(bob.open_session(session, info).code, StatusCode::PermissionDenied);
+  v1::EditResponse edit;
+  EXPECT_EQ(bob.fill_holes(fill_request(session, 12), edit).code, StatusCode::PermissionDenied);
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(bob.list_sessions(list).is_ok());
+  EXPECT_EQ(list.sessions_size(), 0);
+  EXPECT_EQ(bob.share_session(session, "bob", false, info).code, StatusCode::PermissionDenied);
+
+  ASSERT_TRUE(alice.share_session(session, "bob", false, info).is_ok());
+  EXPECT_TRUE(bob.open_session(session, info).is_ok());
+  EXPECT_EQ(bob.close_session(session).code, StatusCode::PermissionDenied);  // owner only
+  ASSERT_TRUE(alice.share_session(session, "bob", true, info).is_ok());
+  EXPECT_EQ(bob.open_session(session, info).code, StatusCode::PermissionDenied);
+
+  // Jobs are visible to their submitter only.
+  v1::JobSpec spec;
+  spec.set_format(v1::OFF);
+  spec.mutable_selection()->set_all(true);
+  v1::Job job;
+  ASSERT_TRUE(alice.submit_job(spec, sample_mesh(), job).is_ok());
+  EXPECT_EQ(bob.get_job(job.job_id(), job).code, StatusCode::NotFound);
+}
+
+TEST(Service, TokensAreRequiredOffLoopback) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  // Not started through start(): the refusal happens before listening.
+  const std::string command = std::string(TOUCHMEND_SERVER_PATH) + " --listen 0.0.0.0:0 --data-dir " +
+                              (dir.path() / "d").string() + " 2>/dev/null";
+  const int rc = std::system(command.c_str());
+  EXPECT_NE(rc, 0);
+}
+
+TEST(Service, KilledServerLosesNoAcknowledgedEditOrJob) {
+  TempDir dir;
+  ServerProcess server(dir.path(), {"--job-workers", "1"});
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient client(channel);
+  const std::string session = make_session(client, "crash");
+
+  // A finished job, and a long one running when the server dies.
+  v1::JobSpec spec;
+  spec.set_format(v1::OFF);
+  spec.mutable_selection()->set_all(true);
+  v1::Job done_job;
+  ASSERT_TRUE(client.submit_job(spec, sample_mesh(), done_job).is_ok());
+  {
+    auto w = client.watch_job(done_job.job_id());
+    v1::Job j;
+    while (w->read(j, 60s)) {
+    }
+    ASSERT_EQ(j.state(), v1::SUCCEEDED);
+  }
+  std::string done_result;
+  ASSERT_TRUE(client.fetch_job_result(done_job.job_id(), done_result).is_ok());
+  // The client mirrors every acknowledged edit; the server is killed while it edits.
+  rpc::MeshDocument mirror;
+  ASSERT_TRUE(client.download_document(session, mirror).is_ok());
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  std::atomic<bool> stop{false};
+  std::mutex mirror_mutex;
+  std::size_t acknowledged = 0;
+  std::thread editor([&] {
+    for (int round = 0; !stop; ++round) {
+      v1::EditResponse edit;
+      Status s;
+      if (round % 3 == 0) {
+        s = client.fill_holes(fill_request(session, holes.holes(round / 3 % 3).id()), edit);
+        if (s.code == StatusCode::NotFound) s = client.undo(session, edit);  // already filled
+      } else {
+        s = round % 3 == 1 ? client.undo(session, edit) : client.redo(session, edit);
+        if (s.code == StatusCode::FailedPrecondition) continue;
+      }
+      if (!s.is_ok()) break;  // the server died
+      std::lock_guard lock(mirror_mutex);
+      ASSERT_TRUE(rpc::apply_delta(mirror, edit.delta()).is_ok());
+      ++acknowledged;
+    }
+  });
+  std::this_thread::sleep_for(300ms);
+  // A long job is running (its RUNNING state is durable before work starts) when the
+  // server is killed.
+  v1::JobSpec slow = spec;
+  slow.set_format(v1::OBJ);
+  slow.mutable_options()->set_shape(v1::PATCH_SHAPE_FAIR);
+  v1::Job slow_job;
+  auto job_channel = server.connect();
+  ASSERT_TRUE(job_channel);
+  RepairClient job_client(job_channel);
+  ASSERT_TRUE(job_client.submit_job(slow, read_binary_file(shared_data() / "meshes/stanford-bunny.obj"), slow_job).is_ok());
+  {
+    auto w = job_client.watch_job(slow_job.job_id());
+    v1::Job j;
+    while (w->read(j, 60s) && j.state() != v1::RUNNING) {
+    }
+    ASSERT_EQ(j.state(), v1::RUNNING);
+  }
+  EXPECT_EQ(server.stop(SIGKILL), -SIGKILL);
+  stop = true;
+  editor.join();
+  EXPECT_GT(acknowledged, 3u);
+
+  ASSERT_TRUE(server.start()) << server.log();
+  channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient after(channel);
+  rpc::MeshDocument recovered;
+  ASSERT_TRUE(after.download_document(session, recovered).is_ok());
+  // Every acknowledged edit is there. An edit the server committed but could not acknowledge
+  // before dying may follow; the journal replays it onto the mirror.
+  ASSERT_GE(recovered.version, mirror.version);
+  if (recovered.version > mirror.version) {
+    auto stream = after.subscribe(session, mirror.version);
+    v1::SessionEvent event;
+    while (mirror.version < recovered.version && stream->read(event, 10s)) {
+      ASSERT_TRUE(event.has_delta());
+      ASSERT_TRUE(rpc::apply_delta(mirror, event.delta()).is_ok());
+    }
+  }
+  EXPECT_EQ(recovered, mirror);
+
+  // The finished job and its result survived; the interrupted one runs again and finishes.
+  v1::Job job;
+  ASSERT_TRUE(after.get_job(done_job.job_id(), job).is_ok());
+  EXPECT_EQ(job.state(), v1::SUCCEEDED);
+  std::string result;
+  ASSERT_TRUE(after.fetch_job_result(done_job.job_id(), result).is_ok());
+  EXPECT_EQ(result, done_result);
+  auto w = after.watch_job(slow_job.job_id());
+  while (w->read(job, 300s)) {
+  }
+  EXPECT_EQ(job.state(), v1::SUCCEEDED) << job.error().message();
+  EXPECT_EQ(job.attempts(), 2u);  // re-run after the restart
+  EXPECT_EQ(job.report().holes_size(), 5);
+}
+
+TEST(Service, TlsClientsConnectAndPlainClientsAreRefused) {
+  TempDir dir;
+  const auto cert = dir.path() / "cert.pem";
+  const auto key = dir.path() / "key.pem";
+  const std::string openssl = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
+                              "-addext subjectAltName=DNS:localhost,IP:127.0.0.1 -keyout " +
+                              key.string() + " -out " + cert.string() + " 2>/dev/null";
+  ASSERT_EQ(std::system(openssl.c_str()), 0) << "openssl is needed for this test";
+  ServerProcess server(dir.path() / "srv", {"--tls-cert", cert.string(), "--tls-key", key.string()});
+  ASSERT_TRUE(server.start()) << server.log();
+
+  net::ChannelOptions tls = server.options();
+  tls.tls = true;
+  tls.tls_ca = cert.string();
+  tls.tls_server_name = "localhost";
+  Status status;
+  auto channel = net::Channel::connect(tls, status);
+  ASSERT_TRUE(channel) << status.to_string();
+  RepairClient client(channel);
+  const std::string session = make_session(client, "over tls");
+  v1::ListHolesResponse holes;
+  EXPECT_TRUE(client.list_holes(session, holes).is_ok());
+  EXPECT_EQ(holes.holes_size(), 3);
+
+  // A plain-TCP client gets a clean failure, not a hang.
+  net::ChannelOptions plain = server.options();
+  plain.connect_timeout = 5s;
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(net::Channel::connect(plain, status), nullptr);
+  EXPECT_NE(status.code, StatusCode::Ok);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 5s);
+
+  // A TLS client that does not trust the certificate is refused too.
+  net::ChannelOptions untrusted = tls;
+  untrusted.tls_ca = "/etc/ssl/certs/ca-certificates.crt";
+  EXPECT_EQ(net::Channel::connect(untrusted, status), nullptr);
+  EXPECT_EQ(status.code, StatusCode::Unavailable) << status.to_string();
+
+  EXPECT_TRUE(client.list_holes(session, holes).is_ok());
+}
+
+TEST(Service, MetricsAndHealthOverHttp) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  ASSERT_TRUE(server_answers(server));
+  RawResult r = raw_exchange(server.metrics_port(), "GET /metrics HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(r.received.find("200 OK"), std::string::npos);
+  EXPECT_NE(r.received.find("touchmend_rpcs_started_total{method=\"/touchmend.v1.Repair/Health\"} 1"),
+            std::string::npos)
+      << r.received.substr(0, 2000);
+  EXPECT_NE(r.received.find("touchmend_journal_commit_duration_seconds_bucket"), std::string::npos);
+  r = raw_exchange(server.metrics_port(), "GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(r.received.find("200 OK"), std::string::npos);
+  r = raw_exchange(server.metrics_port(), "GET /nope HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(r.received.find("404"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace touchmend::testing
