@@ -473,12 +473,14 @@ std::size_t FillReport::left_open() const {
 FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOptions& options,
                       const FillProgress& progress) {
   FillReport report;
-  const HoleSearchResult found = find_holes(mesh);
+  // The O(n^2) projectability test runs only for the holes selected (below), not for every
+  // boundary of the mesh: an interactive fill of one hole should not pay for the others.
+  HoleSearchResult found = find_holes(mesh, {.compute_projectability = false});
   report.holes_found = found.holes.size();
-  std::vector<const Hole*> selected;
+  std::vector<Hole*> selected;
   switch (selection.mode) {
     case FillSelection::Mode::All:
-      for (const Hole& h : found.holes) selected.push_back(&h);
+      for (Hole& h : found.holes) selected.push_back(&h);
       break;
     case FillSelection::Mode::Ids:
       for (const std::uint32_t id : selection.ids) {
@@ -500,7 +502,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
   // searches for faces near each patch. Not part of any hole's time.
   double longest_edge = selected.empty() ? 0.0 : max_edge_length(mesh);
   for (std::size_t i = 0; i < selected.size(); ++i) {
-    const Hole& hole = *selected[i];
+    const Hole& hole = *selected[i];  // properties completed just before filling
     if (selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary) {
       HoleFillReport skipped;
       skipped.hole_id = hole.id;
@@ -510,6 +512,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
                                    selection.max_boundary);
       report.holes.push_back(std::move(skipped));
     } else {
+      compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
       report.holes.push_back(fill_hole_cached(mesh, hole, options, longest_edge));
     }
     if (progress && !progress(i + 1, selected.size())) break;

@@ -38,6 +38,7 @@ class ServerProcess {
   //! Sends \p signal and waits for the process to end; returns its exit status (or -signal).
   int stop(int signal);
   bool running() const { return pid_ > 0; }
+  pid_t pid() const { return pid_; }
   std::uint16_t port() const { return port_; }
   std::uint16_t metrics_port() const { return metrics_port_; }
   const std::filesystem::path& data_dir() const { return data_dir_; }

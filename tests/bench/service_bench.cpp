@@ -1,0 +1,255 @@
+// touchmend-service-bench: the service targets of DESIGN.md, measured against a real
+// touchmend-server process on loopback.
+//   1. round trip "select hole near a point -> fill -> delta received by another client" for a
+//      300-boundary-vertex hole (target p99 <= 10 ms);
+//   2. sweep streaming: N clients x 1,000 tool samples/s (target: 32 clients, no drops),
+//      with the server's CPU and memory;
+//   3. batch throughput: fill jobs per second over the shared cases with the default workers.
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <fstream>
+#include <iostream>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_io.h"
+#include "tests/integration/server_process.h"
+#include "tests/support/cases.h"
+#include "tests/support/mesh_factory.h"
+
+using namespace touchmend;
+using namespace touchmend::testing;
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct ProcessUsage {
+  double cpu_seconds = 0;
+  double rss_mib = 0;
+  double peak_rss_mib = 0;
+};
+
+ProcessUsage usage_of(pid_t pid) {
+  ProcessUsage u;
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  std::getline(stat, line);
+  const auto close = line.rfind(')');
+  std::istringstream fields(line.substr(close + 2));
+  std::string f;
+  unsigned long utime = 0, stime = 0;
+  for (int i = 3; i <= 15 && fields >> f; ++i) {
+    if (i == 14) utime = std::stoul(f);
+    if (i == 15) stime = std::stoul(f);
+  }
+  u.cpu_seconds = double(utime + stime) / double(sysconf(_SC_CLK_TCK));
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) u.rss_mib = std::stod(line.substr(6)) / 1024;
+    if (line.rfind("VmHWM:", 0) == 0) u.peak_rss_mib = std::stod(line.substr(6)) / 1024;
+  }
+  return u;
+}
+
+std::string percentiles(std::vector<double> ms) {
+  if (ms.empty()) return "no samples";
+  std::sort(ms.begin(), ms.end());
+  auto at = [&](double q) { return ms[std::min(ms.size() - 1, std::size_t(q * double(ms.size() - 1) + 0.5))]; };
+  return fmt::format("n={} min={:.3f} p50={:.3f} p90={:.3f} p99={:.3f} max={:.3f} ms", ms.size(), ms.front(), at(0.5),
+                     at(0.9), at(0.99), ms.back());
+}
+
+std::string annulus_off(int inner) {
+  const geometry::MeshSoup soup = annulus(inner, 10.0, 6, 0.4);
+  const auto mesh = geometry::build_mesh(soup).mesh;
+  std::string off;
+  geometry::serialize_mesh(mesh, geometry::MeshFormat::Off, {}, off);
+  return off;
+}
+
+void round_trip(const ServerProcess& server, int iterations) {
+  auto channel_a = server.connect();
+  auto channel_b = server.connect();
+  net::RepairClient a(channel_a), b(channel_b);
+  v1::SessionInfo info;
+  a.create_session("bench", info);
+  v1::LoadMeshResponse loaded;
+  if (auto s = a.upload_mesh(info.session_id(), annulus_off(300), v1::OFF, "annulus300.off", loaded); !s.is_ok()) {
+    std::cerr << "upload failed: " << s.to_string() << "\n";
+    return;
+  }
+  auto stream = b.subscribe(info.session_id(), loaded.session().version());
+  v1::Point3 near;
+  near.set_x(10.0);  // on the hole's rim
+  std::vector<double> total, fill_only;
+  std::uint32_t boundary = 0;
+  for (int i = 0; i < iterations + 5; ++i) {
+    const auto start = Clock::now();
+    v1::FindNearestHoleResponse nearest;
+    a.find_nearest_hole(info.session_id(), near, nearest);
+    boundary = nearest.hole().boundary_edges();
+    v1::FillHolesRequest fill;
+    fill.set_session_id(info.session_id());
+    fill.mutable_selection()->mutable_ids()->add_ids(nearest.hole().id());
+    v1::EditResponse edit;
+    const auto fill_start = Clock::now();
+    if (auto s = a.fill_holes(fill, edit); !s.is_ok()) {
+      std::cerr << "fill failed: " << s.to_string() << "\n";
+      return;
+    }
+    const auto fill_end = Clock::now();
+    v1::SessionEvent event;
+    while (stream->read(event, 10s)) {
+      if (event.has_delta() && event.delta().version() == edit.version()) break;
+    }
+    const auto end = Clock::now();
+    if (i >= 5) {  // warm-up
+      total.push_back(std::chrono::duration<double, std::milli>(end - start).count());
+      fill_only.push_back(std::chrono::duration<double, std::milli>(fill_end - fill_start).count());
+    }
+    v1::EditResponse undone;
+    a.undo(info.session_id(), undone);
+    while (stream->read(event, 10s)) {
+      if (event.has_delta() && event.delta().version() == undone.version()) break;
+    }
+  }
+  std::cout << fmt::format("round trip, {}-vertex hole (select -> fill -> delta at a 2nd client): {}\n", boundary,
+                           percentiles(total));
+  std::cout << fmt::format("  of which the FillHoles call:                                        {}\n",
+                           percentiles(fill_only));
+}
+
+void sweep(const ServerProcess& server, pid_t pid, int clients, double seconds) {
+  auto owner_channel = server.connect();
+  net::RepairClient owner(owner_channel);
+  v1::SessionInfo info;
+  owner.create_session("sweep", info);
+  v1::LoadMeshResponse loaded;
+  owner.upload_mesh(info.session_id(), annulus_off(64), v1::OFF, "annulus.off", loaded);
+  struct Client {
+    std::shared_ptr<net::Channel> channel;
+    std::unique_ptr<net::RepairClient> api;
+    std::unique_ptr<net::Stream> stream;
+    std::uint64_t sent = 0;
+  };
+  std::vector<Client> all(static_cast<std::size_t>(clients));
+  for (auto& c : all) {
+    c.channel = server.connect();
+    c.api = std::make_unique<net::RepairClient>(c.channel);
+    c.stream = c.api->interact();
+  }
+  const ProcessUsage before = usage_of(pid);
+  const auto start = Clock::now();
+  // Open loop: one sample per client per millisecond on a fixed schedule (no coordinated
+  // omission: a late tick sends its samples late, it does not skip them).
+  auto next = start;
+  std::uint64_t seq = 0;
+  std::uint64_t late_ticks = 0;
+  while (Clock::now() - start < std::chrono::duration<double>(seconds)) {
+    ++seq;
+    for (auto& c : all) {
+      v1::InteractionMessage m;
+      if (seq == 1) m.set_session_id(info.session_id());
+      auto* tool = m.mutable_tool();
+      tool->set_seq(seq);
+      tool->set_time_us(std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - start).count());
+      tool->mutable_position()->set_x(10.0 * std::cos(seq * 0.001));
+      tool->mutable_position()->set_y(10.0 * std::sin(seq * 0.001));
+      tool->mutable_direction()->set_z(-1);
+      tool->set_radius(0.2);
+      tool->set_stroke_begin(seq == 1);
+      c.stream->send(m);
+      ++c.sent;
+    }
+    next += 1ms;
+    if (Clock::now() > next + 1ms) ++late_ticks;
+    std::this_thread::sleep_until(next);
+  }
+  std::uint64_t sent = 0, received = 0, conflated = 0;
+  for (auto& c : all) {
+    c.stream->half_close();
+    v1::InteractionEvent event;
+    v1::InteractionAck last;
+    while (c.stream->read(event, 30s)) {
+      if (event.has_ack()) last = event.ack();
+    }
+    sent += c.sent;
+    received += last.tool_samples_received();
+    conflated += last.tool_samples_conflated();
+  }
+  const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  const ProcessUsage after = usage_of(pid);
+  std::cout << fmt::format(
+      "sweep {:>2} clients x 1 kHz for {:.0f} s: sent {} received {} dropped {} conflated {} | server CPU {:.0f}% of "
+      "one core, RSS {:.1f} MiB (peak {:.1f}) | sender late ticks {}\n",
+      clients, elapsed, sent, received, sent - received, conflated,
+      100 * (after.cpu_seconds - before.cpu_seconds) / elapsed, after.rss_mib, after.peak_rss_mib, late_ticks);
+}
+
+void batch(const ServerProcess& server) {
+  auto channel = server.connect();
+  net::RepairClient client(channel);
+  std::vector<std::string> ids;
+  const auto start = Clock::now();
+  std::size_t bytes = 0;
+  for (const std::string& name : list_cases()) {
+    const std::string path = shared_data_dir() + "/cases/" + name + "/holed.off";
+    std::ifstream in(path, std::ios::binary);
+    if (!in) continue;
+    std::string mesh((std::istreambuf_iterator<char>(in)), {});
+    bytes += mesh.size();
+    v1::JobSpec spec;
+    spec.set_format(v1::OFF);
+    spec.set_name(name);
+    spec.mutable_selection()->set_all(true);
+    v1::Job job;
+    if (auto s = client.submit_job(spec, mesh, job); s.is_ok()) ids.push_back(job.job_id());
+  }
+  std::size_t succeeded = 0;
+  for (const auto& id : ids) {
+    auto w = client.watch_job(id);
+    v1::Job j;
+    while (w->read(j, 600s)) {
+    }
+    succeeded += j.state() == v1::SUCCEEDED;
+  }
+  const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  std::cout << fmt::format("batch: {} jobs ({} succeeded, {:.1f} MB of meshes) in {:.2f} s: {:.1f} jobs/s\n", ids.size(),
+                           succeeded, bytes / 1e6, elapsed, ids.size() / elapsed);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"touchmend-service-bench: service latency, streaming and throughput on loopback"};
+  int iterations = 200;
+  double sweep_seconds = 30;
+  std::vector<int> sweep_clients = {1, 8, 32};
+  bool skip_sweep = false;
+  app.add_option("--iterations", iterations, "Round trips to measure")->capture_default_str();
+  app.add_option("--sweep-seconds", sweep_seconds, "Duration of each sweep run")->capture_default_str();
+  app.add_option("--sweep-clients", sweep_clients, "Client counts for the sweep runs")->capture_default_str();
+  app.add_flag("--skip-sweep", skip_sweep, "Only the round trip and the batch");
+  CLI11_PARSE(app, argc, argv);
+
+  TempDir dir;
+  ServerProcess server(dir.path());
+  if (!server.start()) {
+    std::cerr << "could not start touchmend-server\n" << server.log();
+    return 1;
+  }
+  std::cout << fmt::format("machine: {} cores; server {}\n", std::thread::hardware_concurrency(), TOUCHMEND_SERVER_PATH);
+  round_trip(server, iterations);
+  if (!skip_sweep) {
+    for (int n : sweep_clients) sweep(server, server.pid(), n, sweep_seconds);
+  }
+  batch(server);
+  return 0;
+}
