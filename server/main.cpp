@@ -1,18 +1,17 @@
 // touchmend-server — the headless repair server: sessions, fills, live deltas, fill jobs.
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
-
+#include <boost/asio.hpp>
 #include <csignal>
+#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <sys/file.h>
 #include <thread>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <OpenMesh/Core/System/omstream.hh>
-#include <boost/asio.hpp>
 
 #include "server/service/admin_http.h"
 #include "server/service/auth.h"
@@ -35,7 +34,8 @@ bool parse_endpoint(const std::string& text, tcp::endpoint& out, std::string& er
     return false;
   }
   std::string host = text.substr(0, colon);
-  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']')
+    host = host.substr(1, host.size() - 2);
   unsigned long port = 0;
   try {
     std::size_t used = 0;
@@ -91,10 +91,13 @@ int main(int argc, char** argv) {
   unsigned hello_timeout_ms = 10'000;
   unsigned keepalive_timeout_ms = 20'000;
   unsigned max_frame_kb = 1024;
-  app.add_option("--listen", listen, "Address and port to serve on (HOST:PORT; port 0 picks a free one)")
+  app.add_option("--listen", listen,
+                 "Address and port to serve on (HOST:PORT; port 0 picks a free one)")
       ->capture_default_str();
-  app.add_option("--data-dir", data_dir, "Directory for the store (created if missing)")->capture_default_str();
-  auto* cert = app.add_option("--tls-cert", tls_cert, "PEM certificate chain: serve TLS instead of plain TCP");
+  app.add_option("--data-dir", data_dir, "Directory for the store (created if missing)")
+      ->capture_default_str();
+  auto* cert = app.add_option("--tls-cert", tls_cert,
+                              "PEM certificate chain: serve TLS instead of plain TCP");
   auto* key = app.add_option("--tls-key", tls_key, "PEM private key of --tls-cert");
   cert->needs(key);
   key->needs(cert);
@@ -104,25 +107,38 @@ int main(int argc, char** argv) {
   app.add_option("--workers", workers, "Worker threads for session work (fills, holes, exports)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
-  app.add_option("--io-threads", io_threads, "Network threads")->capture_default_str()->check(CLI::Range(1, 64));
-  app.add_option("--metrics", metrics_address, "HOST:PORT for /metrics (Prometheus) and /healthz over HTTP");
-  app.add_option("--job-workers", job_workers, "Threads running fill jobs")->capture_default_str()->check(CLI::Range(1, 64));
+  app.add_option("--io-threads", io_threads, "Network threads")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  app.add_option("--metrics", metrics_address,
+                 "HOST:PORT for /metrics (Prometheus) and /healthz over HTTP");
+  app.add_option("--job-workers", job_workers, "Threads running fill jobs")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   app.add_option("--job-queue", job_queue, "Queued jobs before submissions are refused as busy")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
   app.add_option("--job-ttl-hours", job_ttl_hours, "How long finished jobs and results are kept")
       ->capture_default_str()
       ->check(CLI::Range(1, 24 * 365));
-  app.add_option("--max-upload-mb", max_upload_mb, "Largest mesh accepted")->capture_default_str()->check(CLI::Range(1, 4096));
-  app.add_option("--max-frame-kb", max_frame_kb, "Largest frame accepted")->capture_default_str()->check(CLI::Range(64, 16384));
-  app.add_option("--hello-timeout-ms", hello_timeout_ms, "A connection must authenticate within this")
+  app.add_option("--max-upload-mb", max_upload_mb, "Largest mesh accepted")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  app.add_option("--max-frame-kb", max_frame_kb, "Largest frame accepted")
+      ->capture_default_str()
+      ->check(CLI::Range(64, 16384));
+  app.add_option("--hello-timeout-ms", hello_timeout_ms,
+                 "A connection must authenticate within this")
       ->capture_default_str()
       ->check(CLI::Range(100, 600000));
-  app.add_option("--keepalive-timeout-ms", keepalive_timeout_ms, "Close a connection silent for this long")
+  app.add_option("--keepalive-timeout-ms", keepalive_timeout_ms,
+                 "Close a connection silent for this long")
       ->capture_default_str()
       ->check(CLI::Range(500, 3600000));
-  app.add_option("--port-file", port_file, "Write the bound port(s) here once listening (for scripts)");
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str()
+  app.add_option("--port-file", port_file,
+                 "Write the bound port(s) here once listening (for scripts)");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+      ->capture_default_str()
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
   CLI11_PARSE(app, argc, argv);
 
@@ -137,7 +153,8 @@ int main(int argc, char** argv) {
   if (!parse_endpoint(listen, endpoint, error)) return fail("--listen: " + error);
   TokenAuthenticator auth;
   if (!tokens_file.empty()) {
-    if (Status s = TokenAuthenticator::from_file(tokens_file, auth); !s.is_ok()) return fail(s.message);
+    if (Status s = TokenAuthenticator::from_file(tokens_file, auth); !s.is_ok())
+      return fail(s.message);
   } else if (!endpoint.address().is_loopback()) {
     return fail("refusing to listen on non-loopback " + listen +
                 " without --tokens (anyone could reach the sessions); add --tokens FILE");
@@ -181,15 +198,18 @@ int main(int argc, char** argv) {
   const auto recovery_start = std::chrono::steady_clock::now();
   if (Status s = service.recover(); !s.is_ok()) return fail("recovery failed: " + s.message);
   if (Status s = jobs.start(); !s.is_ok()) return fail(s.message);
-  log_event(spdlog::level::info, "recovered",
-            {{"duration_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - recovery_start).count()},
-             {"sessions", service.session_count()}});
+  log_event(
+      spdlog::level::info, "recovered",
+      {{"duration_s",
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - recovery_start).count()},
+       {"sessions", service.session_count()}});
 
   metrics.add_gauge("touchmend_sessions_active", "Sessions held by this server",
                     [&] { return static_cast<double>(service.session_count()); });
   metrics.add_gauge("touchmend_jobs_queued", "Fill jobs waiting for a worker",
                     [&] { return static_cast<double>(jobs.queued()); });
-  metrics.add_gauge("touchmend_jobs_running", "Fill jobs running", [&] { return static_cast<double>(jobs.running()); });
+  metrics.add_gauge("touchmend_jobs_running", "Fill jobs running",
+                    [&] { return static_cast<double>(jobs.running()); });
   metrics.add_gauge("touchmend_journal_last_commit_seconds", "Duration of the last journal commit",
                     [&] { return store->last_commit_seconds(); });
 
@@ -198,7 +218,8 @@ int main(int argc, char** argv) {
   connection_limits.max_frame_bytes = std::size_t{max_frame_kb} << 10;
   connection_limits.hello_timeout = std::chrono::milliseconds(hello_timeout_ms);
   connection_limits.keepalive_timeout = std::chrono::milliseconds(keepalive_timeout_ms);
-  connection_limits.ping_interval = std::min(connection_limits.ping_interval, connection_limits.keepalive_timeout / 4);
+  connection_limits.ping_interval =
+      std::min(connection_limits.ping_interval, connection_limits.keepalive_timeout / 4);
   RpcServer server(io, service, auth, metrics, connection_limits);
   std::optional<TlsConfig> tls;
   if (!tls_cert.empty()) tls = TlsConfig{tls_cert, tls_key};
@@ -212,13 +233,18 @@ int main(int argc, char** argv) {
 
   const auto bound = server.local_endpoint();
   log_event(spdlog::level::info, "listening",
-            {{"address", bound.address().to_string()}, {"port", bound.port()}, {"tls", tls.has_value()},
-             {"tokens", auth.requires_tokens()}, {"data_dir", data_dir}, {"workers", workers},
+            {{"address", bound.address().to_string()},
+             {"port", bound.port()},
+             {"tls", tls.has_value()},
+             {"tokens", auth.requires_tokens()},
+             {"data_dir", data_dir},
+             {"workers", workers},
              {"metrics_port", admin ? admin->local_endpoint().port() : 0}});
   if (!port_file.empty()) {
     std::string text = std::to_string(bound.port()) + "\n";
     if (admin) text += std::to_string(admin->local_endpoint().port()) + "\n";
-    if (!write_file_atomically(port_file, text)) return fail("cannot write --port-file " + port_file);
+    if (!write_file_atomically(port_file, text))
+      return fail("cannot write --port-file " + port_file);
   }
 
   // Finished jobs past their TTL are removed once a minute.

@@ -1,11 +1,10 @@
 #include "client/cli/commands.h"
 
-#include <unistd.h>
-
 #include <charconv>
-#include <iostream>
 #include <cmath>
+#include <iostream>
 #include <ostream>
+#include <unistd.h>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

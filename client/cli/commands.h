@@ -56,13 +56,15 @@ struct FillArgs {
 struct JobArgs {
   std::string action;  //!< submit, status, wait, cancel, fetch, list
   std::string job_id;
-  FillArgs fill;       //!< submit: input file, selection and options (output: --wait -o)
+  FillArgs fill;  //!< submit: input file, selection and options (output: --wait -o)
   bool wait = false;
 };
 
 int run_info(const InfoArgs& args, std::ostream& out, std::ostream& err);
-int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err);
-int run_fill_remote(const FillArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err);
+int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostream& out,
+                     std::ostream& err);
+int run_fill_remote(const FillArgs& args, const RemoteArgs& remote, std::ostream& out,
+                    std::ostream& err);
 int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err);
 int run_holes(const HolesArgs& args, std::ostream& out, std::ostream& err);
 int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err);

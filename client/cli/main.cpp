@@ -31,9 +31,11 @@ int main(int argc, char** argv) {
   RemoteArgs remote;
   app.add_option("--server", remote.server,
                  "Run on this touchmend-server (HOST:PORT) instead of in-process");
-  app.add_option("--token", remote.token,
-                 "Bearer token for --server (default: $TOUCHMEND_TOKEN; visible in ps, so prefer it)");
-  app.add_option("--tls-ca", remote.tls_ca, "Connect with TLS, verifying the server with this CA file");
+  app.add_option(
+      "--token", remote.token,
+      "Bearer token for --server (default: $TOUCHMEND_TOKEN; visible in ps, so prefer it)");
+  app.add_option("--tls-ca", remote.tls_ca,
+                 "Connect with TLS, verifying the server with this CA file");
   app.add_flag("--tls", remote.tls, "Connect with TLS, verifying the server with the system's CAs");
 
   InfoArgs info;
@@ -94,29 +96,38 @@ int main(int argc, char** argv) {
 
   JobArgs job;
   std::string job_near_text;
-  auto* job_cmd = app.add_subcommand("job", "Fill jobs on a server (needs --server): submit, status, wait, cancel, fetch, list");
+  auto* job_cmd = app.add_subcommand(
+      "job", "Fill jobs on a server (needs --server): submit, status, wait, cancel, fetch, list");
   job_cmd->require_subcommand(1);
-  auto* submit_cmd = job_cmd->add_subcommand("submit", "Submit FILE as a fill job; prints the job id (or waits with --wait)");
+  auto* submit_cmd = job_cmd->add_subcommand(
+      "submit", "Submit FILE as a fill job; prints the job id (or waits with --wait)");
   submit_cmd->add_option("FILE", job.fill.file, "Mesh file with holes")->required();
-  auto* job_all = submit_cmd->add_flag("--all", job.fill.all, "Fill every hole (up to --max-boundary)");
-  auto* job_holes = submit_cmd->add_option("--hole", job.fill.hole_ids, "Fill the holes with these ids");
+  auto* job_all =
+      submit_cmd->add_flag("--all", job.fill.all, "Fill every hole (up to --max-boundary)");
+  auto* job_holes =
+      submit_cmd->add_option("--hole", job.fill.hole_ids, "Fill the holes with these ids");
   auto* job_near = submit_cmd->add_option("--near", job_near_text, "Fill the hole nearest X,Y,Z");
   job_all->excludes(job_holes)->excludes(job_near);
   job_holes->excludes(job_near);
-  submit_cmd->add_option("--max-boundary", job.fill.max_boundary, "Skip holes with more boundary edges")
+  submit_cmd
+      ->add_option("--max-boundary", job.fill.max_boundary, "Skip holes with more boundary edges")
       ->check(CLI::NonNegativeNumber);
-  submit_cmd->add_option("--refine-iterations", job.fill.refine_iterations, "Rounds of Liepa refinement")
+  submit_cmd
+      ->add_option("--refine-iterations", job.fill.refine_iterations, "Rounds of Liepa refinement")
       ->check(CLI::Range(1, 5))
       ->capture_default_str();
   submit_cmd->add_option("--shape", job.fill.shape, "flat, fair or auto")
       ->check(CLI::IsMember({"flat", "fair", "auto"}))
       ->capture_default_str();
   submit_cmd->add_flag("--binary", job.fill.binary, "Binary PLY/STL result");
-  submit_cmd->add_flag("--wait", job.wait, "Wait for the job, showing progress, and print its report");
-  submit_cmd->add_option("-o,--output", job.fill.output, "With --wait: write the result here (atomically)");
+  submit_cmd->add_flag("--wait", job.wait,
+                       "Wait for the job, showing progress, and print its report");
+  submit_cmd->add_option("-o,--output", job.fill.output,
+                         "With --wait: write the result here (atomically)");
   submit_cmd->add_flag("--json", job.fill.json, "Print JSON");
   auto* status_cmd = job_cmd->add_subcommand("status", "Print a job's state and progress");
-  auto* wait_cmd = job_cmd->add_subcommand("wait", "Wait for a job to finish (progress on a terminal)");
+  auto* wait_cmd =
+      job_cmd->add_subcommand("wait", "Wait for a job to finish (progress on a terminal)");
   auto* cancel_cmd = job_cmd->add_subcommand("cancel", "Cancel a queued or running job");
   auto* fetch_cmd = job_cmd->add_subcommand("fetch", "Download a finished job's repaired mesh");
   auto* list_cmd = job_cmd->add_subcommand("list", "List your jobs");
@@ -151,7 +162,8 @@ int main(int argc, char** argv) {
       if (!job_near_text.empty()) {
         touchmend::geometry::Vec3 p;
         if (!parse_point(job_near_text, p)) {
-          std::cerr << "error: --near expects three finite numbers X,Y,Z, got '" << job_near_text << "'\n";
+          std::cerr << "error: --near expects three finite numbers X,Y,Z, got '" << job_near_text
+                    << "'\n";
           return kExitUsage;
         }
         job.fill.near = p;

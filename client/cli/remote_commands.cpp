@@ -1,11 +1,10 @@
 // The `touchmend` subcommands that run against a touchmend-server (--server).
 
-#include <unistd.h>
-
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <unistd.h>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -98,9 +97,12 @@ bool make_selection(const FillArgs& args, v1::HoleSelection& selection, v1::Fill
   }
   options.set_refine_iterations(static_cast<std::uint32_t>(args.refine_iterations));
   options.set_max_boundary(static_cast<std::uint32_t>(args.max_boundary));
-  if (args.shape == "flat") options.set_shape(v1::PATCH_SHAPE_FLAT);
-  else if (args.shape == "fair") options.set_shape(v1::PATCH_SHAPE_FAIR);
-  else if (args.shape == "auto") options.set_shape(v1::PATCH_SHAPE_AUTO);
+  if (args.shape == "flat")
+    options.set_shape(v1::PATCH_SHAPE_FLAT);
+  else if (args.shape == "fair")
+    options.set_shape(v1::PATCH_SHAPE_FAIR);
+  else if (args.shape == "auto")
+    options.set_shape(v1::PATCH_SHAPE_AUTO);
   else {
     err << "error: --shape must be flat, fair or auto\n";
     return false;
@@ -121,23 +123,31 @@ nlohmann::json hole_json(const v1::Hole& h) {
 }
 
 nlohmann::json fill_json(const v1::HoleFillResult& r) {
-  return {{"hole_id", r.hole_id()},         {"boundary_vertices", r.boundary_vertices()},
-          {"filled", r.filled()},           {"skipped", r.skipped()},
-          {"reason", r.reason()},           {"method", r.method()},
-          {"shape", r.shape()},             {"shape_reason", r.shape_reason()},
-          {"faces_added", r.faces_added()}, {"vertices_added", r.vertices_added()},
+  return {{"hole_id", r.hole_id()},
+          {"boundary_vertices", r.boundary_vertices()},
+          {"filled", r.filled()},
+          {"skipped", r.skipped()},
+          {"reason", r.reason()},
+          {"method", r.method()},
+          {"shape", r.shape()},
+          {"shape_reason", r.shape_reason()},
+          {"faces_added", r.faces_added()},
+          {"vertices_added", r.vertices_added()},
           {"seconds", r.seconds()}};
 }
 
 std::string fill_line(const v1::HoleFillResult& r) {
   if (r.skipped()) return fmt::format("hole {:>6}: skipped ({})\n", r.hole_id(), r.reason());
   if (!r.filled()) return fmt::format("hole {:>6}: LEFT OPEN: {}\n", r.hole_id(), r.reason());
-  return fmt::format("hole {:>6}: filled, {} boundary edges, method {}, shape {} ({}), {} faces and {} vertices added, {:.2f} ms\n",
-                     r.hole_id(), r.boundary_vertices(), r.method(), r.shape(), r.shape_reason(), r.faces_added(),
-                     r.vertices_added(), r.seconds() * 1e3);
+  return fmt::format(
+      "hole {:>6}: filled, {} boundary edges, method {}, shape {} ({}), {} faces and {} vertices "
+      "added, {:.2f} ms\n",
+      r.hole_id(), r.boundary_vertices(), r.method(), r.shape(), r.shape_reason(), r.faces_added(),
+      r.vertices_added(), r.seconds() * 1e3);
 }
 
-void print_fill_report(const v1::FillReport& report, bool json, const nlohmann::json& extra, std::ostream& out) {
+void print_fill_report(const v1::FillReport& report, bool json, const nlohmann::json& extra,
+                       std::ostream& out) {
   std::size_t filled = 0, open = 0, skipped = 0;
   for (const auto& h : report.holes()) {
     filled += h.filled();
@@ -158,8 +168,9 @@ void print_fill_report(const v1::FillReport& report, bool json, const nlohmann::
     return;
   }
   for (const auto& h : report.holes()) out << fill_line(h);
-  out << fmt::format("filled {} of {} selected holes ({} left open, {} skipped; {} holes in the mesh)\n", filled,
-                     report.holes_size(), open, skipped, report.holes_found());
+  out << fmt::format(
+      "filled {} of {} selected holes ({} left open, {} skipped; {} holes in the mesh)\n", filled,
+      report.holes_size(), open, skipped, report.holes_found());
 }
 
 std::size_t left_open(const v1::FillReport& report) {
@@ -177,11 +188,12 @@ struct TemporarySession {
   }
 };
 
-int upload_into_session(net::RepairClient& client, const std::string& file, TemporarySession& session,
-                        std::ostream& err) {
+int upload_into_session(net::RepairClient& client, const std::string& file,
+                        TemporarySession& session, std::ostream& err) {
   v1::MeshFormat format;
   if (!wire_format(file, format)) {
-    err << "error: " << file << ": unknown mesh file extension (expected .stl, .obj, .off or .ply)\n";
+    err << "error: " << file
+        << ": unknown mesh file extension (expected .stl, .obj, .off or .ply)\n";
     return kExitBadInput;
   }
   std::string bytes;
@@ -193,8 +205,9 @@ int upload_into_session(net::RepairClient& client, const std::string& file, Temp
   session.id = info.session_id();
   v1::LoadMeshResponse loaded;
   const auto slash = file.find_last_of('/');
-  if (Status s = client.upload_mesh(session.id, bytes, format, slash == std::string::npos ? file : file.substr(slash + 1),
-                                    loaded);
+  if (Status s =
+          client.upload_mesh(session.id, bytes, format,
+                             slash == std::string::npos ? file : file.substr(slash + 1), loaded);
       !s.is_ok()) {
     return report(s, err, file);
   }
@@ -212,7 +225,8 @@ bool write_output(const std::string& path, const std::string& bytes, std::ostrea
 
 }  // namespace
 
-int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err) {
+int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostream& out,
+                     std::ostream& err) {
   int code = kExitOk;
   auto channel = connect(remote, err, code);
   if (!channel) return code;
@@ -220,35 +234,42 @@ int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostre
   TemporarySession session{client, {}};
   if (int c = upload_into_session(client, args.file, session, err); c != kExitOk) return c;
   v1::ListHolesResponse holes;
-  if (Status s = client.list_holes(session.id, holes); !s.is_ok()) return report(s, err, "list holes");
+  if (Status s = client.list_holes(session.id, holes); !s.is_ok())
+    return report(s, err, "list holes");
   if (args.json) {
     nlohmann::json list = nlohmann::json::array();
     for (const auto& h : holes.holes()) list.push_back(hole_json(h));
-    out << nlohmann::json{{"file", args.file}, {"server", remote.server}, {"holes", list}}.dump(2) << "\n";
+    out << nlohmann::json{{"file", args.file}, {"server", remote.server}, {"holes", list}}.dump(2)
+        << "\n";
     return kExitOk;
   }
   if (holes.holes().empty()) {
     out << "no holes: the mesh is closed\n";
     return kExitOk;
   }
-  out << fmt::format("{:>8} {:>6} {:>12} {:>12} {:>8}  {}\n", "id", "edges", "perimeter", "area", "kind", "centroid");
+  out << fmt::format("{:>8} {:>6} {:>12} {:>12} {:>8}  {}\n", "id", "edges", "perimeter", "area",
+                     "kind", "centroid");
   for (const auto& h : holes.holes()) {
-    out << fmt::format("{:>8} {:>6} {:>12.6g} {:>12.6g} {:>8}  ({:.6g}, {:.6g}, {:.6g}){}\n", h.id(),
-                       h.boundary_edges(), h.perimeter(), h.area(), h.simple() ? "simple" : "complex",
-                       h.centroid().x(), h.centroid().y(), h.centroid().z(),
-                       h.unfillable_reason().empty() ? "" : "  unfillable: " + h.unfillable_reason());
+    out << fmt::format(
+        "{:>8} {:>6} {:>12.6g} {:>12.6g} {:>8}  ({:.6g}, {:.6g}, {:.6g}){}\n", h.id(),
+        h.boundary_edges(), h.perimeter(), h.area(), h.simple() ? "simple" : "complex",
+        h.centroid().x(), h.centroid().y(), h.centroid().z(),
+        h.unfillable_reason().empty() ? "" : "  unfillable: " + h.unfillable_reason());
   }
   return kExitOk;
 }
 
-int run_fill_remote(const FillArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err) {
+int run_fill_remote(const FillArgs& args, const RemoteArgs& remote, std::ostream& out,
+                    std::ostream& err) {
   v1::MeshFormat out_format;
   if (!wire_format(args.output, out_format)) {
-    err << "error: " << args.output << ": unknown output extension (expected .stl, .obj, .off or .ply)\n";
+    err << "error: " << args.output
+        << ": unknown output extension (expected .stl, .obj, .off or .ply)\n";
     return kExitUsage;
   }
   v1::FillHolesRequest request;
-  if (!make_selection(args, *request.mutable_selection(), *request.mutable_options(), err)) return kExitUsage;
+  if (!make_selection(args, *request.mutable_selection(), *request.mutable_options(), err))
+    return kExitUsage;
   int code = kExitOk;
   auto channel = connect(remote, err, code);
   if (!channel) return code;
@@ -264,7 +285,10 @@ int run_fill_remote(const FillArgs& args, const RemoteArgs& remote, std::ostream
   }
   if (!write_output(args.output, bytes, err)) return kExitBadInput;
   print_fill_report(edit.report(), args.json,
-                    {{"input", args.file}, {"output", args.output}, {"server", remote.server}, {"version", edit.version()}},
+                    {{"input", args.file},
+                     {"output", args.output},
+                     {"server", remote.server},
+                     {"version", edit.version()}},
                     out);
   if (!args.json) out << fmt::format("wrote {}\n", args.output);
   return args.strict && left_open(edit.report()) > 0 ? kExitLeftOpen : kExitOk;
@@ -294,31 +318,38 @@ void print_job(const v1::Job& job, bool json, std::ostream& out) {
     out << job_json(job).dump(2) << "\n";
     return;
   }
-  out << fmt::format("job {}  {}  {:.0f}%  {}{}\n", job.job_id(), v1::JobState_Name(job.state()), job.progress() * 100,
-                     job.name(),
-                     job.has_error() && job.error().code() != 0 ? "  error: " + job.error().message() : "");
+  out << fmt::format(
+      "job {}  {}  {:.0f}%  {}{}\n", job.job_id(), v1::JobState_Name(job.state()),
+      job.progress() * 100, job.name(),
+      job.has_error() && job.error().code() != 0 ? "  error: " + job.error().message() : "");
 }
 
 int job_exit(const v1::Job& job) {
   switch (job.state()) {
-    case v1::SUCCEEDED: return kExitOk;
+    case v1::SUCCEEDED:
+      return kExitOk;
     case v1::FAILED: {
       const auto code = rpc::status_code_from_int(job.error().code());
-      return code == StatusCode::InvalidArgument || code == StatusCode::NotFound ? kExitBadInput : kExitServer;
+      return code == StatusCode::InvalidArgument || code == StatusCode::NotFound ? kExitBadInput
+                                                                                 : kExitServer;
     }
-    default: return kExitServer;
+    default:
+      return kExitServer;
   }
 }
 
-int wait_for_job(net::RepairClient& client, const std::string& id, const std::string& output, bool json,
-                 std::ostream& out, std::ostream& err) {
+int wait_for_job(net::RepairClient& client, const std::string& id, const std::string& output,
+                 bool json, std::ostream& out, std::ostream& err) {
   auto stream = client.watch_job(id);
   v1::Job job;
   bool have = false;
   const bool show_progress = !json && &err == &std::cerr && ::isatty(STDERR_FILENO) != 0;
   while (stream->read(job, std::chrono::hours(24))) {
     have = true;
-    if (show_progress) err << fmt::format("job {}: {} {:.0f}%\r", id, v1::JobState_Name(job.state()), job.progress() * 100) << std::flush;
+    if (show_progress)
+      err << fmt::format("job {}: {} {:.0f}%\r", id, v1::JobState_Name(job.state()),
+                         job.progress() * 100)
+          << std::flush;
   }
   if (show_progress) err << "\n";
   if (Status s = stream->status(); !s.is_ok()) return report(s, err, "job " + id);
@@ -357,14 +388,16 @@ int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, st
   if (args.action == "submit") {
     v1::MeshFormat format;
     if (!wire_format(args.fill.file, format)) {
-      err << "error: " << args.fill.file << ": unknown mesh file extension (expected .stl, .obj, .off or .ply)\n";
+      err << "error: " << args.fill.file
+          << ": unknown mesh file extension (expected .stl, .obj, .off or .ply)\n";
       return kExitBadInput;
     }
     if (!args.fill.output.empty() && !args.wait) {
       err << "error: -o needs --wait (or fetch the result later with `job fetch ID -o OUT`)\n";
       return kExitUsage;
     }
-    if (!make_selection(args.fill, *spec.mutable_selection(), *spec.mutable_options(), err)) return kExitUsage;
+    if (!make_selection(args.fill, *spec.mutable_selection(), *spec.mutable_options(), err))
+      return kExitUsage;
     spec.set_format(format);
     spec.set_binary_output(args.fill.binary);
     const auto slash = args.fill.file.find_last_of('/');
@@ -389,19 +422,23 @@ int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, st
     return wait_for_job(client, job.job_id(), args.fill.output, args.fill.json, out, err);
   }
   if (args.action == "status") {
-    if (Status s = client.get_job(args.job_id, job); !s.is_ok()) return report(s, err, "job " + args.job_id);
+    if (Status s = client.get_job(args.job_id, job); !s.is_ok())
+      return report(s, err, "job " + args.job_id);
     print_job(job, args.fill.json, out);
     return kExitOk;
   }
-  if (args.action == "wait") return wait_for_job(client, args.job_id, args.fill.output, args.fill.json, out, err);
+  if (args.action == "wait")
+    return wait_for_job(client, args.job_id, args.fill.output, args.fill.json, out, err);
   if (args.action == "cancel") {
-    if (Status s = client.cancel_job(args.job_id, job); !s.is_ok()) return report(s, err, "job " + args.job_id);
+    if (Status s = client.cancel_job(args.job_id, job); !s.is_ok())
+      return report(s, err, "job " + args.job_id);
     print_job(job, args.fill.json, out);
     return kExitOk;
   }
   if (args.action == "fetch") {
     std::string result;
-    if (Status s = client.fetch_job_result(args.job_id, result); !s.is_ok()) return report(s, err, "job " + args.job_id);
+    if (Status s = client.fetch_job_result(args.job_id, result); !s.is_ok())
+      return report(s, err, "job " + args.job_id);
     if (!write_output(args.fill.output, result, err)) return kExitBadInput;
     out << fmt::format("wrote {} ({} bytes)\n", args.fill.output, result.size());
     return kExitOk;
@@ -418,7 +455,8 @@ int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, st
     }
     return kExitOk;
   }
-  err << "error: unknown job action " << args.action << " (submit, status, wait, cancel, fetch, list)\n";
+  err << "error: unknown job action " << args.action
+      << " (submit, status, wait, cancel, fetch, list)\n";
   return kExitUsage;
 }
 

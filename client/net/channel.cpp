@@ -16,11 +16,13 @@ bool parse_server_address(const std::string& text, ChannelOptions& options, std:
     return false;
   }
   std::string host = text.substr(0, colon);
-  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']')
+    host = host.substr(1, host.size() - 2);
   try {
     std::size_t used = 0;
     const unsigned long port = std::stoul(text.substr(colon + 1), &used);
-    if (used != text.size() - colon - 1 || port == 0 || port > 65535) throw std::out_of_range("port");
+    if (used != text.size() - colon - 1 || port == 0 || port > 65535)
+      throw std::out_of_range("port");
     options.port = static_cast<std::uint16_t>(port);
   } catch (const std::exception&) {
     error = "bad port in '" + text + "'";
@@ -60,17 +62,21 @@ void ClientCall::cancel() {
   frame.set_call_id(id_);
   frame.set_kind(v1::CANCEL);
   channel->enqueue(rpc::encode_frame(frame));
-  asio::post(channel->io_, [channel, self = shared_from_this()] {
+  // Handlers hold the channel by raw pointer: only the channel's owner may destroy it, and
+  // its destructor stops and joins the network thread first (a handler owning the channel
+  // would destroy the io_context from inside its own run()).
+  asio::post(channel->io_, [ch = channel.get(), self = shared_from_this()] {
     if (self->done_) return;
     self->done_ = true;
-    channel->calls_.erase(self->id_);
+    ch->calls_.erase(self->id_);
     if (self->on_finish_) self->on_finish_({StatusCode::Cancelled, "cancelled by the client"});
   });
 }
 
 // ---------------------------------------------------------------------------------------
 
-Channel::Channel(const ChannelOptions& options) : options_(options), decoder_(options.max_frame_bytes) {}
+Channel::Channel(const ChannelOptions& options)
+    : options_(options), decoder_(options.max_frame_bytes) {}
 
 Channel::~Channel() {
   close();
@@ -108,13 +114,13 @@ Status Channel::do_connect() {
   tcp::socket socket(io_);
   if (tls_context_) {
     stream_ = std::make_unique<rpc::ByteStream>(std::move(socket), *tls_context_);
-    const std::string name = options_.tls_server_name.empty() ? options_.host : options_.tls_server_name;
+    const std::string name =
+        options_.tls_server_name.empty() ? options_.host : options_.tls_server_name;
     stream_->tls()->set_verify_callback(asio::ssl::host_name_verification(name));
     SSL_set_tlsext_host_name(stream_->tls()->native_handle(), name.c_str());
   } else {
     stream_ = std::make_unique<rpc::ByteStream>(std::move(socket));
   }
-  auto self = shared_from_this();
   auto done = [this](Status s) {
     std::lock_guard lock(connect_mutex_);
     if (!connect_result_) connect_result_ = std::move(s);
@@ -123,29 +129,40 @@ Status Channel::do_connect() {
   auto resolver = std::make_shared<tcp::resolver>(io_);
   resolver->async_resolve(
       options_.host, std::to_string(options_.port),
-      [this, self, done, resolver](const rpc::error_code& ec, tcp::resolver::results_type results) {
-        if (ec) return done({StatusCode::Unavailable, "cannot resolve " + options_.host + ": " + ec.message()});
-        asio::async_connect(stream_->socket(), results, [this, self, done](const rpc::error_code& ec2, const tcp::endpoint&) {
-          if (ec2) {
-            return done({StatusCode::Unavailable, "cannot connect to " + options_.host + ":" +
-                                                      std::to_string(options_.port) + ": " + ec2.message()});
-          }
-          rpc::tune_socket(stream_->socket());
-          stream_->async_handshake(asio::ssl::stream_base::client, [this, self, done](const rpc::error_code& ec3) {
-            if (ec3) return done({StatusCode::Unavailable, "TLS handshake failed: " + ec3.message()});
-            v1::Frame hello;
-            hello.set_kind(v1::HELLO);
-            hello.set_protocol_version(1);
-            hello.set_token(options_.token);
-            enqueue(rpc::encode_frame(hello));
-            read_more();
-          });
-        });
+      [this, done, resolver](const rpc::error_code& ec, tcp::resolver::results_type results) {
+        if (ec)
+          return done(
+              {StatusCode::Unavailable, "cannot resolve " + options_.host + ": " + ec.message()});
+        asio::async_connect(
+            stream_->socket(), results,
+            [this, done](const rpc::error_code& ec2, const tcp::endpoint&) {
+              if (ec2) {
+                return done({StatusCode::Unavailable, "cannot connect to " + options_.host + ":" +
+                                                          std::to_string(options_.port) + ": " +
+                                                          ec2.message()});
+              }
+              rpc::tune_socket(stream_->socket());
+              stream_->async_handshake(asio::ssl::stream_base::client, [this,
+                                                                        done](const rpc::error_code&
+                                                                                  ec3) {
+                if (ec3)
+                  return done({StatusCode::Unavailable, "TLS handshake failed: " + ec3.message()});
+                v1::Frame hello;
+                hello.set_kind(v1::HELLO);
+                hello.set_protocol_version(1);
+                hello.set_token(options_.token);
+                enqueue(rpc::encode_frame(hello));
+                read_more();
+              });
+            });
       });
+  work_.emplace(io_.get_executor());
   thread_ = std::thread([this] { io_.run(); });
   std::unique_lock lock(connect_mutex_);
-  if (!connect_cv_.wait_for(lock, options_.connect_timeout, [this] { return connect_result_.has_value(); })) {
-    return {StatusCode::DeadlineExceeded, "no answer from " + options_.host + ":" + std::to_string(options_.port) +
+  if (!connect_cv_.wait_for(lock, options_.connect_timeout,
+                            [this] { return connect_result_.has_value(); })) {
+    return {StatusCode::DeadlineExceeded, "no answer from " + options_.host + ":" +
+                                              std::to_string(options_.port) +
                                               " within the connect timeout"};
   }
   if (connect_result_->is_ok()) open_ = true;
@@ -153,36 +170,37 @@ Status Channel::do_connect() {
 }
 
 void Channel::read_more() {
-  stream_->async_read_some(asio::buffer(read_buffer_), [self = shared_from_this()](const rpc::error_code& ec,
-                                                                                   std::size_t n) {
-    if (self->closed_) return;
+  stream_->async_read_some(asio::buffer(read_buffer_), [this](const rpc::error_code& ec,
+                                                              std::size_t n) {
+    if (closed_) return;
     if (ec) {
-      Status s{StatusCode::Unavailable, ec == asio::error::eof ? "the server closed the connection"
-                                                               : "connection lost: " + ec.message()};
-      if (!self->close_status_.is_ok()) s = self->close_status_;
+      Status s{StatusCode::Unavailable, ec == asio::error::eof
+                                            ? "the server closed the connection"
+                                            : "connection lost: " + ec.message()};
+      if (!close_status_.is_ok()) s = close_status_;
       {
-        std::lock_guard lock(self->connect_mutex_);
-        if (!self->connect_result_) {
-          self->connect_result_ = s;
-          self->connect_cv_.notify_all();
+        std::lock_guard lock(connect_mutex_);
+        if (!connect_result_) {
+          connect_result_ = s;
+          connect_cv_.notify_all();
         }
       }
-      self->fail_all(s);
+      fail_all(s);
       return;
     }
-    self->decoder_.feed(std::string_view(self->read_buffer_.data(), n));
+    decoder_.feed(std::string_view(read_buffer_.data(), n));
     v1::Frame frame;
     for (;;) {
-      const auto r = self->decoder_.next(frame);
+      const auto r = decoder_.next(frame);
       if (r == rpc::FrameDecoder::Result::NeedMore) break;
       if (r == rpc::FrameDecoder::Result::Error) {
-        self->fail_all({StatusCode::Internal, "bad frame from the server: " + self->decoder_.error().message});
+        fail_all({StatusCode::Internal, "bad frame from the server: " + decoder_.error().message});
         return;
       }
-      self->on_frame(frame);
-      if (self->closed_) return;
+      on_frame(frame);
+      if (closed_) return;
     }
-    self->read_more();
+    read_more();
   });
 }
 
@@ -225,7 +243,8 @@ void Channel::on_frame(v1::Frame& frame) {
       calls_.erase(it);
       call->done_ = true;
       if (call->on_finish_) {
-        call->on_finish_({rpc::status_code_from_int(frame.status().code()), frame.status().message()});
+        call->on_finish_(
+            {rpc::status_code_from_int(frame.status().code()), frame.status().message()});
       }
       return;
     }
@@ -235,10 +254,10 @@ void Channel::on_frame(v1::Frame& frame) {
 }
 
 void Channel::enqueue(std::string bytes) {
-  asio::post(io_, [self = shared_from_this(), b = std::move(bytes)]() mutable {
-    if (self->closed_) return;
-    self->queue_.push_back(std::move(b));
-    self->flush();
+  asio::post(io_, [this, b = std::move(bytes)]() mutable {
+    if (closed_) return;
+    queue_.push_back(std::move(b));
+    flush();
   });
 }
 
@@ -252,14 +271,14 @@ void Channel::flush() {
   std::vector<asio::const_buffer> buffers;
   for (const auto& b : in_flight_) buffers.push_back(asio::buffer(b));
   writing_ = true;
-  stream_->async_write(buffers, [self = shared_from_this()](const rpc::error_code& ec, std::size_t) {
-    self->writing_ = false;
-    self->in_flight_.clear();
+  stream_->async_write(buffers, [this](const rpc::error_code& ec, std::size_t) {
+    writing_ = false;
+    in_flight_.clear();
     if (ec) {
-      self->fail_all({StatusCode::Unavailable, "connection lost: " + ec.message()});
+      fail_all({StatusCode::Unavailable, "connection lost: " + ec.message()});
       return;
     }
-    self->flush();
+    flush();
   });
 }
 
@@ -285,14 +304,20 @@ void Channel::close() {
   if (thread_.get_id() != std::this_thread::get_id()) thread_.join();
 }
 
-bool Channel::is_open() const { return open_.load(); }
+bool Channel::is_open() const {
+  return open_.load();
+}
 
-std::shared_ptr<ClientCall> Channel::start_call(const std::string& method, std::optional<std::string> first,
-                                                bool end_of_stream, std::chrono::milliseconds timeout,
-                                                ClientCall::MessageFn on_message, ClientCall::FinishFn on_finish) {
+std::shared_ptr<ClientCall> Channel::start_call(const std::string& method,
+                                                std::optional<std::string> first,
+                                                bool end_of_stream,
+                                                std::chrono::milliseconds timeout,
+                                                ClientCall::MessageFn on_message,
+                                                ClientCall::FinishFn on_finish) {
   // Odd ids for client-opened calls (the HTTP/2 / ttrpc convention).
   const std::uint32_t id = next_call_id_.fetch_add(2);
-  std::shared_ptr<ClientCall> call(new ClientCall(weak_from_this(), id, std::move(on_message), std::move(on_finish)));
+  std::shared_ptr<ClientCall> call(
+      new ClientCall(weak_from_this(), id, std::move(on_message), std::move(on_finish)));
   v1::Frame frame;
   frame.set_call_id(id);
   frame.set_kind(v1::CALL);
@@ -301,25 +326,31 @@ std::shared_ptr<ClientCall> Channel::start_call(const std::string& method, std::
   frame.set_end_of_stream(end_of_stream);
   if (timeout.count() > 0) frame.set_timeout_ms(static_cast<std::uint32_t>(timeout.count()));
   std::string bytes = rpc::encode_frame(frame);
-  asio::post(io_, [self = shared_from_this(), call, b = std::move(bytes), timeout]() mutable {
-    if (self->closed_) {
+  if (io_.stopped()) {  // closed: answer at once rather than post to a loop that has ended
+    call->done_ = true;
+    if (call->on_finish_) call->on_finish_({StatusCode::Unavailable, "the channel is closed"});
+    return call;
+  }
+  asio::post(io_, [this, call, b = std::move(bytes), timeout]() mutable {
+    if (closed_) {
       call->done_ = true;
       if (call->on_finish_) {
-        call->on_finish_(self->close_status_.is_ok() ? Status{StatusCode::Unavailable, "not connected"}
-                                                     : self->close_status_);
+        call->on_finish_(close_status_.is_ok() ? Status{StatusCode::Unavailable, "not connected"}
+                                               : close_status_);
       }
       return;
     }
-    self->calls_[call->id_] = call;
-    self->queue_.push_back(std::move(b));
-    self->flush();
+    calls_[call->id_] = call;
+    queue_.push_back(std::move(b));
+    flush();
     if (timeout.count() > 0) {
       // The server enforces the deadline too; this covers a server that never answers.
-      auto timer = std::make_shared<asio::steady_timer>(self->io_, timeout + std::chrono::milliseconds(500));
-      timer->async_wait([self, call, timer](const rpc::error_code& ec) {
+      auto timer =
+          std::make_shared<asio::steady_timer>(io_, timeout + std::chrono::milliseconds(500));
+      timer->async_wait([this, call, timer](const rpc::error_code& ec) {
         if (ec || call->done_) return;
         call->done_ = true;
-        self->calls_.erase(call->id_);
+        calls_.erase(call->id_);
         if (call->on_finish_) call->on_finish_({StatusCode::DeadlineExceeded, "deadline exceeded"});
       });
     }
@@ -357,7 +388,9 @@ Status Channel::unary(const std::string& method, const google::protobuf::Message
   return {};
 }
 
-void Channel::send_raw_for_testing(std::string bytes) { enqueue(std::move(bytes)); }
+void Channel::send_raw_for_testing(std::string bytes) {
+  enqueue(std::move(bytes));
+}
 
 // ---------------------------------------------------------------------------------------
 

@@ -10,14 +10,13 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <google/protobuf/message_lite.h>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
-
-#include <google/protobuf/message_lite.h>
 
 #include "proto/rpc/byte_stream.h"
 #include "proto/rpc/frame_codec.h"
@@ -31,9 +30,9 @@ using rpc::StatusCode;
 struct ChannelOptions {
   std::string host = "127.0.0.1";
   std::uint16_t port = 7878;
-  std::string token;      //!< bearer token (servers started with --tokens need one)
+  std::string token;  //!< bearer token (servers started with --tokens need one)
   bool tls = false;
-  std::string tls_ca;     //!< PEM CA file to verify the server with (TLS only; empty: system CAs)
+  std::string tls_ca;  //!< PEM CA file to verify the server with (TLS only; empty: system CAs)
   std::string tls_server_name;  //!< expected certificate name (default: host)
   std::chrono::milliseconds connect_timeout{10'000};
   std::size_t max_frame_bytes = rpc::kDefaultMaxFrameBytes;
@@ -57,8 +56,12 @@ class ClientCall : public std::enable_shared_from_this<ClientCall> {
 
  private:
   friend class Channel;
-  ClientCall(std::weak_ptr<Channel> channel, std::uint32_t id, MessageFn on_message, FinishFn on_finish)
-      : channel_(std::move(channel)), id_(id), on_message_(std::move(on_message)), on_finish_(std::move(on_finish)) {}
+  ClientCall(std::weak_ptr<Channel> channel, std::uint32_t id, MessageFn on_message,
+             FinishFn on_finish)
+      : channel_(std::move(channel)),
+        id_(id),
+        on_message_(std::move(on_message)),
+        on_finish_(std::move(on_finish)) {}
   std::weak_ptr<Channel> channel_;
   std::uint32_t id_;
   MessageFn on_message_;
@@ -81,9 +84,11 @@ class Channel : public std::enable_shared_from_this<Channel> {
 
   //! Opens a call for \p method ("/touchmend.v1.Repair/X" or just "X"). \p first is sent in
   //! the CALL frame. timeout 0 = no deadline.
-  std::shared_ptr<ClientCall> start_call(const std::string& method, std::optional<std::string> first,
-                                         bool end_of_stream, std::chrono::milliseconds timeout,
-                                         ClientCall::MessageFn on_message, ClientCall::FinishFn on_finish);
+  std::shared_ptr<ClientCall> start_call(const std::string& method,
+                                         std::optional<std::string> first, bool end_of_stream,
+                                         std::chrono::milliseconds timeout,
+                                         ClientCall::MessageFn on_message,
+                                         ClientCall::FinishFn on_finish);
 
   //! Blocking unary call.
   Status unary(const std::string& method, const google::protobuf::MessageLite& request,
@@ -105,6 +110,9 @@ class Channel : public std::enable_shared_from_this<Channel> {
 
   ChannelOptions options_;
   boost::asio::io_context io_;
+  //! Keeps io_.run() going after the connection drops, so later calls still complete (with
+  //! UNAVAILABLE) instead of waiting on a loop that has returned.
+  std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> work_;
   std::unique_ptr<boost::asio::ssl::context> tls_context_;
   std::unique_ptr<rpc::ByteStream> stream_;
   std::thread thread_;

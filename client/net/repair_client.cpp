@@ -19,9 +19,12 @@ v1::JobRef job_ref(const std::string& id) {
 }
 }  // namespace
 
-Status RepairClient::health(v1::HealthResponse& out) { return channel_->unary("Health", v1::HealthRequest(), out); }
+Status RepairClient::health(v1::HealthResponse& out) {
+  return channel_->unary("Health", v1::HealthRequest(), out);
+}
 
-Status RepairClient::create_session(const std::string& name, v1::SessionInfo& out, const std::string& request_id) {
+Status RepairClient::create_session(const std::string& name, v1::SessionInfo& out,
+                                    const std::string& request_id) {
   v1::CreateSessionRequest req;
   req.set_name(name);
   req.set_request_id(request_id);
@@ -36,8 +39,8 @@ Status RepairClient::open_session(const std::string& session_id, v1::SessionInfo
   return channel_->unary("OpenSession", ref(session_id), out);
 }
 
-Status RepairClient::share_session(const std::string& session_id, const std::string& principal, bool revoke,
-                                   v1::SessionInfo& out) {
+Status RepairClient::share_session(const std::string& session_id, const std::string& principal,
+                                   bool revoke, v1::SessionInfo& out) {
   v1::ShareSessionRequest req;
   req.set_session_id(session_id);
   req.set_principal(principal);
@@ -51,7 +54,8 @@ Status RepairClient::close_session(const std::string& session_id) {
 }
 
 template <class Chunk>
-Status RepairClient::upload(const std::string& method, std::vector<Chunk> chunks, google::protobuf::MessageLite& out) {
+Status RepairClient::upload(const std::string& method, std::vector<Chunk> chunks,
+                            google::protobuf::MessageLite& out) {
   struct Result {
     std::promise<Status> status;
     std::string payload;
@@ -62,15 +66,18 @@ Status RepairClient::upload(const std::string& method, std::vector<Chunk> chunks
       method, std::nullopt, false, std::chrono::milliseconds(0),
       [result](std::string payload) { result->payload = std::move(payload); },
       [result](Status s) { result->status.set_value(std::move(s)); });
-  for (std::size_t i = 0; i < chunks.size(); ++i) call->send(chunks[i].SerializeAsString(), i + 1 == chunks.size());
+  for (std::size_t i = 0; i < chunks.size(); ++i)
+    call->send(chunks[i].SerializeAsString(), i + 1 == chunks.size());
   Status s = future.get();
   if (!s.is_ok()) return s;
-  if (!out.ParseFromString(result->payload)) return {StatusCode::Internal, "the server's response does not parse"};
+  if (!out.ParseFromString(result->payload))
+    return {StatusCode::Internal, "the server's response does not parse"};
   return {};
 }
 
-Status RepairClient::upload_mesh(const std::string& session_id, const std::string& bytes, v1::MeshFormat format,
-                                 const std::string& name, v1::LoadMeshResponse& out) {
+Status RepairClient::upload_mesh(const std::string& session_id, const std::string& bytes,
+                                 v1::MeshFormat format, const std::string& name,
+                                 v1::LoadMeshResponse& out) {
   std::vector<v1::MeshChunk> chunks;
   for (std::size_t offset = 0; offset < bytes.size() || offset == 0; offset += rpc::kChunkBytes) {
     v1::MeshChunk chunk;
@@ -96,8 +103,8 @@ Status RepairClient::load_server_mesh(const std::string& session_id, const std::
   return channel_->unary("LoadServerMesh", req, out);
 }
 
-Status RepairClient::download(const std::string& method, const google::protobuf::MessageLite& request,
-                              std::string& bytes) {
+Status RepairClient::download(const std::string& method,
+                              const google::protobuf::MessageLite& request, std::string& bytes) {
   auto result = std::make_shared<std::promise<Status>>();
   auto data = std::make_shared<std::string>();
   auto future = result->get_future();
@@ -126,7 +133,8 @@ Status RepairClient::download_document(const std::string& session_id, rpc::MeshD
   std::string bytes;
   if (Status s = export_mesh(session_id, v1::DOCUMENT, false, bytes); !s.is_ok()) return s;
   v1::MeshDocument proto;
-  if (!proto.ParseFromString(bytes)) return {StatusCode::Internal, "the session document does not parse"};
+  if (!proto.ParseFromString(bytes))
+    return {StatusCode::Internal, "the session document does not parse"};
   return rpc::from_proto(proto, document);
 }
 
@@ -166,7 +174,8 @@ std::unique_ptr<Stream> RepairClient::server_stream(const std::string& method,
   return stream;
 }
 
-std::unique_ptr<Stream> RepairClient::subscribe(const std::string& session_id, std::uint64_t after_version) {
+std::unique_ptr<Stream> RepairClient::subscribe(const std::string& session_id,
+                                                std::uint64_t after_version) {
   v1::SubscribeRequest req;
   req.set_session_id(session_id);
   req.set_after_version(after_version);
@@ -221,7 +230,9 @@ Status RepairClient::list_jobs(v1::ListJobsResponse& out) {
 SessionReplica::SessionReplica(RepairClient& client, std::string session_id)
     : client_(client), session_id_(std::move(session_id)) {}
 
-Status SessionReplica::start() { return resync(); }
+Status SessionReplica::start() {
+  return resync();
+}
 
 Status SessionReplica::resync() {
   if (stream_) stream_->cancel();
@@ -279,10 +290,12 @@ Status SessionReplica::poll(std::chrono::milliseconds timeout) {
 Status SessionReplica::wait_for_version(std::uint64_t version, std::chrono::milliseconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (document_.version < version) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) {
-      return {StatusCode::DeadlineExceeded, "the replica is at version " + std::to_string(document_.version) +
-                                                ", not " + std::to_string(version)};
+      return {StatusCode::DeadlineExceeded, "the replica is at version " +
+                                                std::to_string(document_.version) + ", not " +
+                                                std::to_string(version)};
     }
     if (Status s = poll(std::min(left, std::chrono::milliseconds(100))); !s.is_ok()) return s;
   }

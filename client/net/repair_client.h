@@ -30,7 +30,9 @@ class Stream {
   bool finished() const { return queue_->finished(); }
   Status status() const { return queue_->status(); }
   //! Sends a message on a bidirectional stream.
-  void send(const google::protobuf::MessageLite& message) { call_->send(message.SerializeAsString()); }
+  void send(const google::protobuf::MessageLite& message) {
+    call_->send(message.SerializeAsString());
+  }
   void half_close() { call_->half_close(); }
   void cancel() { call_->cancel(); }
 
@@ -46,7 +48,8 @@ class RepairClient {
   Channel& channel() { return *channel_; }
 
   Status health(v1::HealthResponse& out);
-  Status create_session(const std::string& name, v1::SessionInfo& out, const std::string& request_id = "");
+  Status create_session(const std::string& name, v1::SessionInfo& out,
+                        const std::string& request_id = "");
   Status list_sessions(v1::ListSessionsResponse& out);
   Status open_session(const std::string& session_id, v1::SessionInfo& out);
   Status share_session(const std::string& session_id, const std::string& principal, bool revoke,
@@ -56,13 +59,16 @@ class RepairClient {
   //! Uploads a mesh file's bytes into a session in 64 KiB chunks.
   Status upload_mesh(const std::string& session_id, const std::string& bytes, v1::MeshFormat format,
                      const std::string& name, v1::LoadMeshResponse& out);
-  Status load_server_mesh(const std::string& session_id, const std::string& path, v1::LoadMeshResponse& out);
-  Status export_mesh(const std::string& session_id, v1::MeshFormat format, bool binary, std::string& bytes);
+  Status load_server_mesh(const std::string& session_id, const std::string& path,
+                          v1::LoadMeshResponse& out);
+  Status export_mesh(const std::string& session_id, v1::MeshFormat format, bool binary,
+                     std::string& bytes);
   //! The session's mesh document (slot arrays with their version) for a replica.
   Status download_document(const std::string& session_id, rpc::MeshDocument& document);
 
   Status list_holes(const std::string& session_id, v1::ListHolesResponse& out);
-  Status find_nearest_hole(const std::string& session_id, const v1::Point3& point, v1::FindNearestHoleResponse& out);
+  Status find_nearest_hole(const std::string& session_id, const v1::Point3& point,
+                           v1::FindNearestHoleResponse& out);
   Status fill_holes(const v1::FillHolesRequest& request, v1::EditResponse& out,
                     std::chrono::milliseconds timeout = std::chrono::minutes(10));
   Status undo(const std::string& session_id, v1::EditResponse& out);
@@ -80,10 +86,13 @@ class RepairClient {
   Status list_jobs(v1::ListJobsResponse& out);
 
  private:
-  Status download(const std::string& method, const google::protobuf::MessageLite& request, std::string& bytes);
-  std::unique_ptr<Stream> server_stream(const std::string& method, const google::protobuf::MessageLite& request);
+  Status download(const std::string& method, const google::protobuf::MessageLite& request,
+                  std::string& bytes);
+  std::unique_ptr<Stream> server_stream(const std::string& method,
+                                        const google::protobuf::MessageLite& request);
   template <class Chunk>
-  Status upload(const std::string& method, std::vector<Chunk> chunks, google::protobuf::MessageLite& out);
+  Status upload(const std::string& method, std::vector<Chunk> chunks,
+                google::protobuf::MessageLite& out);
 
   std::shared_ptr<Channel> channel_;
 };

@@ -7,13 +7,12 @@
 //! \details Not thread-safe: every call must come from the owning connection's strand
 //! (Asio requires one write in flight per stream, and OpenSSL one thread per SSL object).
 
+#include <boost/asio.hpp>
+#include <boost/asio/ssl.hpp>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
-
-#include <boost/asio.hpp>
-#include <boost/asio/ssl.hpp>
 
 namespace touchmend::rpc {
 
@@ -23,8 +22,6 @@ using error_code = boost::system::error_code;
 
 class ByteStream {
  public:
-  using Handler = std::function<void(const error_code&, std::size_t)>;
-
   //! Plain TCP.
   explicit ByteStream(tcp::socket socket) : plain_(std::move(socket)) {}
   //! TLS over \p socket with \p context (the handshake is separate).
@@ -35,29 +32,38 @@ class ByteStream {
   tcp::socket& socket() { return tls_ ? tls_->next_layer() : *plain_; }
   asio::ssl::stream<tcp::socket>* tls() { return tls_.get(); }
 
-  void async_handshake(asio::ssl::stream_base::handshake_type type,
-                       std::function<void(const error_code&)> handler) {
+  // The operations are templates, not std::function, so a handler bound to a strand
+  // (asio::bind_executor) keeps its associated executor: a std::function wrapper would drop
+  // it and let completions of one connection run concurrently on several I/O threads.
+
+  template <class Handler>
+  void async_handshake(asio::ssl::stream_base::handshake_type type, Handler&& handler) {
     if (!tls_) {
-      handler({});
+      asio::post(
+          socket().get_executor(),
+          asio::bind_executor(asio::get_associated_executor(handler, socket().get_executor()),
+                              [h = std::forward<Handler>(handler)]() mutable { h(error_code{}); }));
       return;
     }
-    tls_->async_handshake(type, std::move(handler));
+    tls_->async_handshake(type, std::forward<Handler>(handler));
   }
 
-  void async_read_some(asio::mutable_buffer buffer, Handler handler) {
+  template <class Handler>
+  void async_read_some(asio::mutable_buffer buffer, Handler&& handler) {
     if (tls_) {
-      tls_->async_read_some(buffer, std::move(handler));
+      tls_->async_read_some(buffer, std::forward<Handler>(handler));
     } else {
-      plain_->async_read_some(buffer, std::move(handler));
+      plain_->async_read_some(buffer, std::forward<Handler>(handler));
     }
   }
 
   //! Writes all of \p buffers (one gathered write: a frame batch is one TCP send).
-  void async_write(const std::vector<asio::const_buffer>& buffers, Handler handler) {
+  template <class Handler>
+  void async_write(const std::vector<asio::const_buffer>& buffers, Handler&& handler) {
     if (tls_) {
-      asio::async_write(*tls_, buffers, std::move(handler));
+      asio::async_write(*tls_, buffers, std::forward<Handler>(handler));
     } else {
-      asio::async_write(*plain_, buffers, std::move(handler));
+      asio::async_write(*plain_, buffers, std::forward<Handler>(handler));
     }
   }
 

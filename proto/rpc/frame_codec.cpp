@@ -67,9 +67,9 @@ FrameDecoder::Result FrameDecoder::next(v1::Frame& frame) {
     return Result::NeedMore;
   }
   if (length > max_frame_bytes_) {
-    return fail(StatusCode::ResourceExhausted,
-                "frame of " + std::to_string(length) + " bytes exceeds the limit of " +
-                    std::to_string(max_frame_bytes_));
+    return fail(StatusCode::ResourceExhausted, "frame of " + std::to_string(length) +
+                                                   " bytes exceeds the limit of " +
+                                                   std::to_string(max_frame_bytes_));
   }
   if (available - varint_bytes < length) return Result::NeedMore;
 
@@ -97,7 +97,8 @@ Status validate_frame(const v1::Frame& frame) {
       if (frame.method().size() > 256) return {StatusCode::InvalidArgument, "method name too long"};
       return {};
     case v1::MESSAGE:
-      if (frame.call_id() == 0) return {StatusCode::InvalidArgument, "MESSAGE frame with call id 0"};
+      if (frame.call_id() == 0)
+        return {StatusCode::InvalidArgument, "MESSAGE frame with call id 0"};
       if (!frame.has_payload() && !frame.end_of_stream()) {
         return {StatusCode::InvalidArgument, "MESSAGE frame without payload or end of stream"};
       }

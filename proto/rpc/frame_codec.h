@@ -21,7 +21,7 @@
 namespace touchmend::rpc {
 
 inline constexpr std::size_t kDefaultMaxFrameBytes = std::size_t{1} << 20;  // 1 MiB
-inline constexpr std::size_t kMaxVarintBytes = 5;  // a uint32 length never needs more
+inline constexpr std::size_t kMaxVarintBytes = 5;      // a uint32 length never needs more
 inline constexpr std::size_t kChunkBytes = 64 * 1024;  //!< bulk payloads travel in these
 
 //! Appends the varint length and the serialized frame to \p out.

@@ -14,7 +14,9 @@ std::size_t MeshDocument::alive_faces() const {
 
 namespace {
 
-Status invalid(std::string message) { return {StatusCode::InvalidArgument, std::move(message)}; }
+Status invalid(std::string message) {
+  return {StatusCode::InvalidArgument, std::move(message)};
+}
 
 bool finite3(const double* p) {
   return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
@@ -31,10 +33,10 @@ bool can_add(std::size_t id, std::size_t size, const std::vector<std::uint8_t>& 
 
 Status apply_delta(MeshDocument& document, const v1::MeshDelta& delta) {
   if (delta.base_version() != document.version || delta.version() != document.version + 1) {
-    return {StatusCode::FailedPrecondition,
-            "delta " + std::to_string(delta.base_version()) + "->" +
-                std::to_string(delta.version()) + " does not follow version " +
-                std::to_string(document.version)};
+    return {StatusCode::FailedPrecondition, "delta " + std::to_string(delta.base_version()) + "->" +
+                                                std::to_string(delta.version()) +
+                                                " does not follow version " +
+                                                std::to_string(document.version)};
   }
   if (delta.added_positions_size() != 3 * delta.added_vertex_ids_size() ||
       delta.moved_positions_size() != 3 * delta.moved_vertex_ids_size() ||
@@ -144,7 +146,7 @@ v1::MeshDelta invert_delta(const v1::MeshDelta& delta, const MeshDocument& docum
     inverse.add_moved_vertex_ids(delta.moved_vertex_ids(i));
     for (int k = 0; k < 3; ++k) {
       inverse.add_moved_positions(delta.moved_from_size() ? delta.moved_from(3 * i + k)
-                                                           : delta.moved_positions(3 * i + k));
+                                                          : delta.moved_positions(3 * i + k));
       inverse.add_moved_from(delta.moved_positions(3 * i + k));
     }
   }

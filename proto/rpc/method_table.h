@@ -11,8 +11,8 @@
 namespace touchmend::rpc {
 
 struct MethodInfo {
-  std::string full_name;  //!< "/touchmend.v1.Repair/FillHoles", as sent in CALL frames
-  std::string name;       //!< "FillHoles"
+  std::string full_name;    //!< "/touchmend.v1.Repair/FillHoles", as sent in CALL frames
+  std::string name;         //!< "FillHoles"
   std::string input_type;   //!< "touchmend.v1.FillHolesRequest"
   std::string output_type;  //!< "touchmend.v1.EditResponse"
   bool client_streaming = false;

@@ -916,7 +916,7 @@ bool write_file_atomically(const std::string& path, std::string_view bytes, std:
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) {
     error = fmt::format("{}: cannot create a temporary file in {}: {}", path, dir.string(),
-                          std::strerror(errno));
+                        std::strerror(errno));
     return false;
   }
   std::size_t written = 0;

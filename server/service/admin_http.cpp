@@ -77,7 +77,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
 }  // namespace
 
-AdminHttpServer::AdminHttpServer(asio::io_context& io, Metrics& metrics, std::function<bool()> healthy)
+AdminHttpServer::AdminHttpServer(asio::io_context& io, Metrics& metrics,
+                                 std::function<bool()> healthy)
     : io_(io), metrics_(metrics), healthy_(std::move(healthy)), acceptor_(io) {}
 
 rpc::Status AdminHttpServer::listen(const tcp::endpoint& endpoint) {
@@ -87,8 +88,9 @@ rpc::Status AdminHttpServer::listen(const tcp::endpoint& endpoint) {
   if (!ec) acceptor_.bind(endpoint, ec);
   if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
   if (ec) {
-    return {rpc::StatusCode::Unavailable, "cannot listen for metrics on " + endpoint.address().to_string() +
-                                              ":" + std::to_string(endpoint.port()) + ": " + ec.message()};
+    return {rpc::StatusCode::Unavailable,
+            "cannot listen for metrics on " + endpoint.address().to_string() + ":" +
+                std::to_string(endpoint.port()) + ": " + ec.message()};
   }
   accept();
   return {};

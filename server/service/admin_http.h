@@ -5,11 +5,10 @@
 //! 0.0.4 and `GET /healthz` (liveness: the event loop answers). Plain HTTP/1.1, meant for
 //! loopback or a cluster-internal address.
 
+#include <boost/asio.hpp>
 #include <functional>
 #include <memory>
 #include <string>
-
-#include <boost/asio.hpp>
 
 #include "proto/rpc/status.h"
 #include "server/service/metrics.h"

@@ -1,9 +1,8 @@
 #include "server/service/auth.h"
 
+#include <fstream>
 #include <openssl/crypto.h>
 #include <openssl/sha.h>
-
-#include <fstream>
 #include <sstream>
 
 namespace touchmend::service {
@@ -17,7 +16,8 @@ std::array<unsigned char, 32> sha256(const std::string& text) {
 bool valid_principal(const std::string& p) {
   if (p.empty() || p.size() > 128) return false;
   for (char c : p) {
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '@' || c == '-')) {
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '@' ||
+          c == '-')) {
       return false;
     }
   }
@@ -42,7 +42,8 @@ Status TokenAuthenticator::from_file(const std::string& path, TokenAuthenticator
               path + ":" + std::to_string(number) + ": expected 'PRINCIPAL TOKEN'"};
     }
     if (!valid_principal(principal)) {
-      return {StatusCode::InvalidArgument, path + ":" + std::to_string(number) + ": bad principal name"};
+      return {StatusCode::InvalidArgument,
+              path + ":" + std::to_string(number) + ": bad principal name"};
     }
     if (token.size() < 16) {
       return {StatusCode::InvalidArgument,
@@ -50,7 +51,8 @@ Status TokenAuthenticator::from_file(const std::string& path, TokenAuthenticator
     }
     out.add(principal, token);
   }
-  if (out.entries_.empty()) return {StatusCode::InvalidArgument, "tokens file " + path + " has no tokens"};
+  if (out.entries_.empty())
+    return {StatusCode::InvalidArgument, "tokens file " + path + " has no tokens"};
   return {};
 }
 
@@ -62,7 +64,8 @@ Status TokenAuthenticator::authenticate(const std::string& token, const tcp::end
                                         std::string& principal) const {
   if (entries_.empty()) {
     if (!peer.address().is_loopback()) {
-      return {StatusCode::Unauthenticated, "this server accepts loopback clients only (no --tokens)"};
+      return {StatusCode::Unauthenticated,
+              "this server accepts loopback clients only (no --tokens)"};
     }
     principal = "local";
     return {};

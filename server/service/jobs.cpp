@@ -26,7 +26,8 @@ std::string random_id() {
     // OpenSSL's generator failing is not recoverable in a meaningful way; fall back to the
     // clock so ids stay unique within this process.
     const auto t = std::chrono::steady_clock::now().time_since_epoch().count();
-    for (std::size_t i = 0; i < sizeof bytes; ++i) bytes[i] = static_cast<unsigned char>(t >> (i % 8 * 8));
+    for (std::size_t i = 0; i < sizeof bytes; ++i)
+      bytes[i] = static_cast<unsigned char>(t >> (i % 8 * 8));
   }
   static const char* hex = "0123456789abcdef";
   std::string id;
@@ -37,8 +38,8 @@ std::string random_id() {
   return id;
 }
 
-BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec, const MeshLimits& limits,
-                           const std::function<bool(double)>& progress) {
+BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec,
+                           const MeshLimits& limits, const std::function<bool(double)>& progress) {
   BatchFillResult result;
   geometry::MeshFormat format;
   if (!to_geometry_format(spec.format(), format)) {
@@ -60,7 +61,8 @@ BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec, co
     result.status = {StatusCode::InvalidArgument, "the mesh has no faces"};
     return result;
   }
-  if (read.soup.points.size() > limits.max_vertices || read.soup.triangles.size() > limits.max_faces) {
+  if (read.soup.points.size() > limits.max_vertices ||
+      read.soup.triangles.size() > limits.max_faces) {
     result.status = {StatusCode::ResourceExhausted, "the mesh exceeds the vertex or face limit"};
     return result;
   }
@@ -70,7 +72,8 @@ BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec, co
   switch (spec.selection().mode_case()) {
     case v1::HoleSelection::kIds:
       selection.mode = geometry::FillSelection::Mode::Ids;
-      selection.ids.assign(spec.selection().ids().ids().begin(), spec.selection().ids().ids().end());
+      selection.ids.assign(spec.selection().ids().ids().begin(),
+                           spec.selection().ids().ids().end());
       break;
     case v1::HoleSelection::kNear:
       selection.mode = geometry::FillSelection::Mode::Nearest;
@@ -88,7 +91,8 @@ BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec, co
   bool stopped = false;
   const geometry::FillReport report = geometry::fill_holes(
       mesh, selection, to_fill_options(spec.options()), [&](std::size_t done, std::size_t total) {
-        const bool go_on = !progress || progress(total ? 0.05 + 0.9 * double(done) / double(total) : 0.95);
+        const bool go_on =
+            !progress || progress(total ? 0.05 + 0.9 * double(done) / double(total) : 0.95);
         stopped = stopped || !go_on;
         return go_on;
       });
@@ -107,7 +111,8 @@ BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec, co
   mesh.garbage_collection();
   geometry::WriteOptions write_options;
   write_options.binary = spec.binary_output();
-  const geometry::WriteResult written = geometry::serialize_mesh(mesh, format, write_options, result.output);
+  const geometry::WriteResult written =
+      geometry::serialize_mesh(mesh, format, write_options, result.output);
   if (!written.ok) {
     result.status = {StatusCode::Internal, written.error};
     return result;
@@ -118,7 +123,9 @@ BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec, co
 JobManager::JobManager(Store& store, Metrics& metrics, const JobOptions& options)
     : store_(store), metrics_(metrics), options_(options) {}
 
-JobManager::~JobManager() { stop(); }
+JobManager::~JobManager() {
+  stop();
+}
 
 Status JobManager::start() {
   for (JobRow& row : store_.load_jobs()) {
@@ -131,7 +138,8 @@ Status JobManager::start() {
       if (r.attempts >= options_.max_attempts) {
         r.state = v1::FAILED;
         r.error_code = static_cast<int>(StatusCode::Aborted);
-        r.error_message = "the server stopped during each of " + std::to_string(r.attempts) + " attempts";
+        r.error_message =
+            "the server stopped during each of " + std::to_string(r.attempts) + " attempts";
         r.finished_ms = now_ms();
         store_.update_job(r);
       } else {
@@ -143,7 +151,8 @@ Status JobManager::start() {
     if (is_final(r.state)) entry->progress = 1;
     jobs_[r.id] = entry;
   }
-  log_event(spdlog::level::info, "jobs_recovered", {{"jobs", jobs_.size()}, {"queued", queue_.size()}});
+  log_event(spdlog::level::info, "jobs_recovered",
+            {{"jobs", jobs_.size()}, {"queued", queue_.size()}});
   for (std::size_t i = 0; i < std::max<std::size_t>(1, options_.workers); ++i) {
     workers_.emplace_back([this] { worker_loop(); });
   }
@@ -155,7 +164,8 @@ void JobManager::stop() {
     std::lock_guard lock(mutex_);
     if (stopping_ && workers_.empty()) return;
     stopping_ = true;
-    for (auto& [id, e] : jobs_) e->cancel = true;  // running jobs stop; they stay RUNNING in the store
+    for (auto& [id, e] : jobs_)
+      e->cancel = true;  // running jobs stop; they stay RUNNING in the store
   }
   wake_.notify_all();
   for (auto& t : workers_) t.join();
@@ -167,7 +177,8 @@ v1::Job JobManager::to_proto(const Entry& e) const {
   job.set_job_id(e.row.id);
   job.set_state(static_cast<v1::JobState>(e.row.state));
   job.set_progress(e.progress);
-  job.set_stage(e.stage.empty() ? v1::JobState_Name(static_cast<v1::JobState>(e.row.state)) : e.stage);
+  job.set_stage(e.stage.empty() ? v1::JobState_Name(static_cast<v1::JobState>(e.row.state))
+                                : e.stage);
   if (!e.row.report.empty()) job.mutable_report()->ParseFromString(e.row.report);
   if (e.row.error_code != 0) {
     job.mutable_error()->set_code(e.row.error_code);
@@ -224,7 +235,8 @@ Status JobManager::submit(const std::string& principal, const v1::JobSpec& spec,
   return {};
 }
 
-Status JobManager::find(const std::string& principal, const std::string& id, std::shared_ptr<Entry>& out) {
+Status JobManager::find(const std::string& principal, const std::string& id,
+                        std::shared_ptr<Entry>& out) {
   auto it = jobs_.find(id);
   // Another principal's job is reported as absent: its existence is not theirs to know.
   if (it == jobs_.end() || it->second->row.principal != principal) {
@@ -319,7 +331,8 @@ std::size_t JobManager::expire() {
   {
     std::lock_guard lock(mutex_);
     const std::int64_t cutoff =
-        now_ms() - std::chrono::duration_cast<std::chrono::milliseconds>(options_.result_ttl).count();
+        now_ms() -
+        std::chrono::duration_cast<std::chrono::milliseconds>(options_.result_ttl).count();
     for (auto it = jobs_.begin(); it != jobs_.end();) {
       if (is_final(it->second->row.state) && it->second->row.finished_ms < cutoff) {
         expired.push_back(it->first);
@@ -346,8 +359,8 @@ void JobManager::notify(const std::shared_ptr<Entry>& e, bool final) {
   if (final) e->watchers.clear();
 }
 
-void JobManager::finish(const std::shared_ptr<Entry>& e, int state, Status error, const v1::FillReport* report,
-                        const std::string* result) {
+void JobManager::finish(const std::shared_ptr<Entry>& e, int state, Status error,
+                        const v1::FillReport* report, const std::string* result) {
   JobRow row;
   {
     std::lock_guard lock(mutex_);
@@ -421,7 +434,8 @@ void JobManager::run(const std::shared_ptr<Entry>& e) {
     std::lock_guard lock(mutex_);
     if (stopping_) return;  // shutting down: leave it RUNNING so the restart re-runs it
   }
-  metrics_.job_duration.observe(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  metrics_.job_duration.observe(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   if (result.status.code == StatusCode::Cancelled) {
     finish(e, v1::CANCELLED, {StatusCode::Cancelled, "cancelled by the client"}, nullptr, nullptr);
   } else if (!result.status.is_ok()) {
@@ -430,8 +444,10 @@ void JobManager::run(const std::shared_ptr<Entry>& e) {
     finish(e, v1::SUCCEEDED, {}, &result.report, &result.output);
   }
   log_event(spdlog::level::info, "job_finished",
-            {{"job_id", e->row.id}, {"state", v1::JobState_Name(static_cast<v1::JobState>(e->row.state))},
-             {"duration_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()}});
+            {{"job_id", e->row.id},
+             {"state", v1::JobState_Name(static_cast<v1::JobState>(e->row.state))},
+             {"duration_s",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()}});
 }
 
 }  // namespace touchmend::service

@@ -47,7 +47,8 @@ class JobManager {
   Status start();
   void stop();
 
-  Status submit(const std::string& principal, const v1::JobSpec& spec, std::string input, v1::Job& job);
+  Status submit(const std::string& principal, const v1::JobSpec& spec, std::string input,
+                v1::Job& job);
   Status get(const std::string& principal, const std::string& id, v1::Job& job);
   Status cancel(const std::string& principal, const std::string& id, v1::Job& job);
   Status result(const std::string& principal, const std::string& id, std::string& bytes);
@@ -74,8 +75,8 @@ class JobManager {
   void worker_loop();
   void run(const std::shared_ptr<Entry>& entry);
   void notify(const std::shared_ptr<Entry>& entry, bool final);
-  void finish(const std::shared_ptr<Entry>& entry, int state, Status error, const v1::FillReport* report,
-              const std::string* result);
+  void finish(const std::shared_ptr<Entry>& entry, int state, Status error,
+              const v1::FillReport* report, const std::string* result);
 
   Store& store_;
   Metrics& metrics_;
@@ -96,7 +97,8 @@ struct BatchFillResult {
   v1::FillReport report;
   std::string output;
 };
-BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec, const MeshLimits& limits,
+BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec,
+                           const MeshLimits& limits,
                            const std::function<bool(double progress)>& progress);
 
 //! A new random id (128 bits, hex) for sessions and jobs.

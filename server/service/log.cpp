@@ -7,7 +7,8 @@ namespace touchmend::service {
 void init_logging(const std::string& level) {
   auto logger = spdlog::stderr_logger_mt("touchmend");
   // The timestamp and level are spdlog's; the rest of the object is the message.
-  logger->set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l",%v})", spdlog::pattern_time_type::utc);
+  logger->set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l",%v})",
+                      spdlog::pattern_time_type::utc);
   logger->set_level(spdlog::level::from_str(level));
   logger->flush_on(spdlog::level::info);
   spdlog::set_default_logger(logger);

@@ -18,7 +18,8 @@ void Histogram::render(const std::string& name, const std::string& labels, std::
   std::uint64_t cumulative = 0;
   for (std::size_t i = 0; i < kBounds.size(); ++i) {
     cumulative += counts_[i].load(std::memory_order_relaxed);
-    out += fmt::format("{}_bucket{{{}{}le=\"{}\"}} {}\n", name, labels, sep, kBounds[i], cumulative);
+    out +=
+        fmt::format("{}_bucket{{{}{}le=\"{}\"}} {}\n", name, labels, sep, kBounds[i], cumulative);
   }
   cumulative += counts_[kBounds.size()].load(std::memory_order_relaxed);
   out += fmt::format("{}_bucket{{{}{}le=\"+Inf\"}} {}\n", name, labels, sep, cumulative);
@@ -49,8 +50,10 @@ std::string Metrics::render() const {
   auto gauge = [&](const std::string& name, const std::string& help, double value) {
     out += fmt::format("# HELP {} {}\n# TYPE {} gauge\n{} {}\n", name, help, name, name, value);
   };
-  gauge("touchmend_connections", "Open client connections", static_cast<double>(connections_open.load()));
-  counter("touchmend_connections_accepted_total", "Connections accepted", connections_accepted.load());
+  gauge("touchmend_connections", "Open client connections",
+        static_cast<double>(connections_open.load()));
+  counter("touchmend_connections_accepted_total", "Connections accepted",
+          connections_accepted.load());
   counter("touchmend_connections_rejected_total", "Connections refused (limits, TLS, auth)",
           connections_rejected.load());
   counter("touchmend_frames_received_total", "Frames received", frames_received.load());
@@ -61,7 +64,8 @@ std::string Metrics::render() const {
           protocol_errors.load());
   counter("touchmend_auth_failures_total", "Rejected tokens and unauthorised access",
           auth_failures.load());
-  counter("touchmend_deltas_dropped_total", "Deltas not sent to slow subscribers", deltas_dropped.load());
+  counter("touchmend_deltas_dropped_total", "Deltas not sent to slow subscribers",
+          deltas_dropped.load());
   counter("touchmend_slow_consumer_resyncs_total", "Resync notices sent to slow subscribers",
           slow_consumer_resyncs.load());
   counter("touchmend_slow_consumer_disconnects_total", "Connections closed for an overfull queue",
@@ -74,27 +78,35 @@ std::string Metrics::render() const {
           jobs_rejected_busy.load());
   for (const auto& g : gauges_) gauge(g.name, g.help, g.read());
 
-  out += "# HELP touchmend_rpcs_started_total RPCs started\n# TYPE touchmend_rpcs_started_total counter\n";
+  out +=
+      "# HELP touchmend_rpcs_started_total RPCs started\n# TYPE touchmend_rpcs_started_total "
+      "counter\n";
   for (const auto& [name, m] : methods_) {
-    out += fmt::format("touchmend_rpcs_started_total{{method=\"{}\"}} {}\n", name, m.started.load());
+    out +=
+        fmt::format("touchmend_rpcs_started_total{{method=\"{}\"}} {}\n", name, m.started.load());
   }
-  out += "# HELP touchmend_rpcs_handled_total RPCs finished, by outcome\n"
-         "# TYPE touchmend_rpcs_handled_total counter\n";
+  out +=
+      "# HELP touchmend_rpcs_handled_total RPCs finished, by outcome\n"
+      "# TYPE touchmend_rpcs_handled_total counter\n";
   for (const auto& [name, m] : methods_) {
-    out += fmt::format("touchmend_rpcs_handled_total{{method=\"{}\",code=\"OK\"}} {}\n", name, m.ok.load());
+    out += fmt::format("touchmend_rpcs_handled_total{{method=\"{}\",code=\"OK\"}} {}\n", name,
+                       m.ok.load());
     out += fmt::format("touchmend_rpcs_handled_total{{method=\"{}\",code=\"error\"}} {}\n", name,
                        m.failed.load());
   }
-  out += "# HELP touchmend_rpc_duration_seconds RPC latency from CALL to TRAILERS\n"
-         "# TYPE touchmend_rpc_duration_seconds histogram\n";
+  out +=
+      "# HELP touchmend_rpc_duration_seconds RPC latency from CALL to TRAILERS\n"
+      "# TYPE touchmend_rpc_duration_seconds histogram\n";
   for (const auto& [name, m] : methods_) {
     m.latency.render("touchmend_rpc_duration_seconds", fmt::format("method=\"{}\"", name), out);
   }
-  out += "# HELP touchmend_journal_commit_duration_seconds Durable journal commit time\n"
-         "# TYPE touchmend_journal_commit_duration_seconds histogram\n";
+  out +=
+      "# HELP touchmend_journal_commit_duration_seconds Durable journal commit time\n"
+      "# TYPE touchmend_journal_commit_duration_seconds histogram\n";
   journal_commit.render("touchmend_journal_commit_duration_seconds", "", out);
-  out += "# HELP touchmend_job_duration_seconds Fill job run time\n"
-         "# TYPE touchmend_job_duration_seconds histogram\n";
+  out +=
+      "# HELP touchmend_job_duration_seconds Fill job run time\n"
+      "# TYPE touchmend_job_duration_seconds histogram\n";
   job_duration.render("touchmend_job_duration_seconds", "", out);
   return out;
 }

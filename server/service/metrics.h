@@ -18,9 +18,8 @@ namespace touchmend::service {
 class Histogram {
  public:
   //! Bucket upper bounds in seconds.
-  static constexpr std::array<double, 14> kBounds = {0.0001, 0.00025, 0.0005, 0.001, 0.0025, 0.005,
-                                                     0.01,   0.025,   0.05,   0.1,   0.25,   0.5,
-                                                     1.0,    5.0};
+  static constexpr std::array<double, 14> kBounds = {
+      0.0001, 0.00025, 0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 5.0};
   void observe(double seconds);
   //! Appends `name_bucket{...}`, `name_sum`, `name_count` lines with \p labels.
   void render(const std::string& name, const std::string& labels, std::string& out) const;

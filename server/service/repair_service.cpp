@@ -37,8 +37,9 @@ void unary(const CallPtr& call, Fn handler) {
     }
     *received = true;
     if (!request->ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {
-      call->finish({StatusCode::InvalidArgument,
-                    "the request is not a valid " + std::string(Request::descriptor()->full_name())});
+      call->finish(
+          {StatusCode::InvalidArgument,
+           "the request is not a valid " + std::string(Request::descriptor()->full_name())});
     }
   };
   call->on_half_close = [call, request, received, handler]() mutable {
@@ -61,7 +62,9 @@ struct ChunkedUpload {
   Chunk first;
 };
 
-bool finite(const v1::Point3& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
+bool finite(const v1::Point3& p) {
+  return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z());
+}
 
 //! Streams \p bytes as MeshChunk messages of 64 KiB, pulled as the connection drains.
 void stream_chunks(const CallPtr& call, std::shared_ptr<const std::string> bytes) {
@@ -82,8 +85,8 @@ void stream_chunks(const CallPtr& call, std::shared_ptr<const std::string> bytes
 
 }  // namespace
 
-RepairService::RepairService(Store& store, JobManager& jobs, asio::thread_pool& pool, Metrics& metrics,
-                             ServiceOptions options)
+RepairService::RepairService(Store& store, JobManager& jobs, asio::thread_pool& pool,
+                             Metrics& metrics, ServiceOptions options)
     : store_(store), jobs_(jobs), pool_(pool), metrics_(metrics), options_(std::move(options)) {
   handlers_ = {
       {"Health", &RepairService::health},
@@ -114,9 +117,11 @@ RepairService::RepairService(Store& store, JobManager& jobs, asio::thread_pool& 
 Status RepairService::recover() {
   std::size_t count = 0;
   for (SessionRow& row : store_.load_sessions()) {
-    auto session = std::make_shared<Session>(std::move(row), store_, pool_, metrics_, options_.session);
+    auto session =
+        std::make_shared<Session>(std::move(row), store_, pool_, metrics_, options_.session);
     if (Status s = session->recover(); !s.is_ok()) {
-      log_event(spdlog::level::err, "session_recovery_failed", {{"session_id", session->id()}, {"msg", s.message}});
+      log_event(spdlog::level::err, "session_recovery_failed",
+                {{"session_id", session->id()}, {"msg", s.message}});
       return s;
     }
     std::lock_guard lock(mutex_);
@@ -154,14 +159,15 @@ std::size_t RepairService::session_count() const {
 void RepairService::start_call(const CallPtr& call) {
   auto it = handlers_.find(call->method().name);
   if (it == handlers_.end()) {
-    call->finish({StatusCode::Unimplemented, "method " + call->method().name + " is not implemented"});
+    call->finish(
+        {StatusCode::Unimplemented, "method " + call->method().name + " is not implemented"});
     return;
   }
   (this->*(it->second))(call);
 }
 
-Status RepairService::open_session(const std::string& principal, const std::string& id, SessionPtr& out,
-                                   bool owner_only) {
+Status RepairService::open_session(const std::string& principal, const std::string& id,
+                                   SessionPtr& out, bool owner_only) {
   if (id.empty()) return {StatusCode::InvalidArgument, "session_id is required"};
   std::lock_guard lock(mutex_);
   auto it = sessions_.find(id);
@@ -169,7 +175,9 @@ Status RepairService::open_session(const std::string& principal, const std::stri
   if (owner_only ? it->second->row().owner != principal : !it->second->allows(principal)) {
     metrics_.auth_failures.fetch_add(1);
     return {StatusCode::PermissionDenied,
-            std::string(owner_only ? "only the owner may do this on session " : "no access to session ") + id};
+            std::string(owner_only ? "only the owner may do this on session "
+                                   : "no access to session ") +
+                id};
   }
   out = it->second;
   return {};
@@ -215,7 +223,8 @@ void RepairService::create_session(const CallPtr& call) {
         call->finish(s);
         return;
       }
-      session = std::make_shared<Session>(std::move(row), store_, pool_, metrics_, options_.session);
+      session =
+          std::make_shared<Session>(std::move(row), store_, pool_, metrics_, options_.session);
       sessions_[session->id()] = session;
     }
     log_event(spdlog::level::info, "session_created",
@@ -285,8 +294,9 @@ void RepairService::close_session(const CallPtr& call) {
   });
 }
 
-void RepairService::load_into(const CallPtr& call, const SessionPtr& session, std::shared_ptr<std::string> bytes,
-                              v1::MeshFormat format, const std::string& name) {
+void RepairService::load_into(const CallPtr& call, const SessionPtr& session,
+                              std::shared_ptr<std::string> bytes, v1::MeshFormat format,
+                              const std::string& name) {
   asio::post(session->strand(), [this, call, session, bytes, format, name] {
     if (call->cancelled()) return;
     geometry::MeshFormat gformat;
@@ -332,7 +342,8 @@ void RepairService::upload_mesh(const CallPtr& call) {
       }
       if (h.total_bytes() > options_.session.limits.max_upload_bytes) {
         call->finish({StatusCode::ResourceExhausted,
-                      "upload of " + std::to_string(h.total_bytes()) + " bytes exceeds the limit of " +
+                      "upload of " + std::to_string(h.total_bytes()) +
+                          " bytes exceeds the limit of " +
                           std::to_string(options_.session.limits.max_upload_bytes)});
         return;
       }
@@ -349,7 +360,8 @@ void RepairService::upload_mesh(const CallPtr& call) {
       return;
     }
     if (state->bytes->size() + chunk.data().size() > state->declared) {
-      call->finish({StatusCode::InvalidArgument, "the upload is longer than its declared total_bytes"});
+      call->finish(
+          {StatusCode::InvalidArgument, "the upload is longer than its declared total_bytes"});
       return;
     }
     state->bytes->append(chunk.data());
@@ -361,8 +373,9 @@ void RepairService::upload_mesh(const CallPtr& call) {
       return;
     }
     if (state->bytes->size() != state->declared) {
-      call->finish({StatusCode::InvalidArgument, "upload cut off: received " + std::to_string(state->bytes->size()) +
-                                                     " of " + std::to_string(state->declared) + " bytes"});
+      call->finish({StatusCode::InvalidArgument, "upload cut off: received " +
+                                                     std::to_string(state->bytes->size()) + " of " +
+                                                     std::to_string(state->declared) + " bytes"});
       return;
     }
     const auto& h = state->first.header();
@@ -383,14 +396,16 @@ void RepairService::load_server_mesh(const CallPtr& call) {
     const auto root = std::filesystem::weakly_canonical(options_.data_dir, ec);
     const auto path = std::filesystem::weakly_canonical(options_.data_dir / req.path(), ec);
     const auto rel = path.lexically_relative(root);
-    if (req.path().empty() || std::filesystem::path(req.path()).is_absolute() || ec || rel.empty() ||
-        *rel.begin() == "..") {
-      call->finish({StatusCode::InvalidArgument, "path must be a file inside the server's data dir"});
+    if (req.path().empty() || std::filesystem::path(req.path()).is_absolute() || ec ||
+        rel.empty() || *rel.begin() == "..") {
+      call->finish(
+          {StatusCode::InvalidArgument, "path must be a file inside the server's data dir"});
       return;
     }
     geometry::MeshFormat gformat;
     if (!geometry::format_from_path(path.string(), gformat)) {
-      call->finish({StatusCode::InvalidArgument, "unknown extension (expected .stl .obj .off .ply)"});
+      call->finish(
+          {StatusCode::InvalidArgument, "unknown extension (expected .stl .obj .off .ply)"});
       return;
     }
     const auto size = std::filesystem::file_size(path, ec);
@@ -451,7 +466,8 @@ void RepairService::find_nearest_hole(const CallPtr& call) {
   unary<v1::FindNearestHoleRequest>(call, [this, call](const v1::FindNearestHoleRequest& req) {
     SessionPtr session;
     Status s = open_session(call->principal(), req.session_id(), session);
-    if (s.is_ok() && !finite(req.point())) s = {StatusCode::InvalidArgument, "the point is not finite"};
+    if (s.is_ok() && !finite(req.point()))
+      s = {StatusCode::InvalidArgument, "the point is not finite"};
     if (!s.is_ok()) {
       call->finish(s);
       return;
@@ -573,7 +589,8 @@ void RepairService::interact(const CallPtr& call) {
       return;
     }
     if (!state->session) {
-      if (Status s = open_session(call->principal(), message.session_id(), state->session); !s.is_ok()) {
+      if (Status s = open_session(call->principal(), message.session_id(), state->session);
+          !s.is_ok()) {
         call->finish(s);
         return;
       }
@@ -584,7 +601,8 @@ void RepairService::interact(const CallPtr& call) {
     switch (message.body_case()) {
       case v1::InteractionMessage::kTool: {
         const auto& tool = message.tool();
-        if (!finite(tool.position()) || !finite(tool.direction()) || !std::isfinite(tool.radius())) {
+        if (!finite(tool.position()) || !finite(tool.direction()) ||
+            !std::isfinite(tool.radius())) {
           call->finish({StatusCode::InvalidArgument, "tool sample with NaN/inf"});
           return;
         }
@@ -614,13 +632,15 @@ void RepairService::interact(const CallPtr& call) {
             *state->presence.mutable_tool_position() = sample->position();
             // Other operators see the tool at up to 30 Hz; the haptic loop itself is local.
             const auto now = std::chrono::steady_clock::now();
-            if (now - state->last_presence >= std::chrono::milliseconds(33) || sample->stroke_end()) {
+            if (now - state->last_presence >= std::chrono::milliseconds(33) ||
+                sample->stroke_end()) {
               state->last_presence = now;
               session->publish_presence(state->presence);
             }
           });
         }
-        if (tool.stroke_end() || std::chrono::steady_clock::now() - state->last_ack >= std::chrono::milliseconds(50)) {
+        if (tool.stroke_end() ||
+            std::chrono::steady_clock::now() - state->last_ack >= std::chrono::milliseconds(50)) {
           send_ack();
         }
         return;
@@ -652,7 +672,8 @@ void RepairService::interact(const CallPtr& call) {
       case v1::InteractionMessage::kHermite: {
         const auto& h = message.hermite();
         if (!finite(h.position()) || h.index() > 3) {
-          call->finish({StatusCode::InvalidArgument, "Hermite point needs a finite position and index 0-3"});
+          call->finish(
+              {StatusCode::InvalidArgument, "Hermite point needs a finite position and index 0-3"});
           return;
         }
         state->last_seq = std::max(state->last_seq, h.seq());
@@ -686,7 +707,8 @@ void RepairService::submit_fill_job(const CallPtr& call) {
         return;
       }
       if (chunk.spec().total_bytes() == 0) {
-        call->finish({StatusCode::InvalidArgument, "total_bytes must be the size of the mesh file"});
+        call->finish(
+            {StatusCode::InvalidArgument, "total_bytes must be the size of the mesh file"});
         return;
       }
       if (chunk.spec().total_bytes() > options_.session.limits.max_upload_bytes) {
@@ -698,7 +720,8 @@ void RepairService::submit_fill_job(const CallPtr& call) {
       state->have_header = true;
     }
     if (state->bytes->size() + chunk.data().size() > state->declared) {
-      call->finish({StatusCode::InvalidArgument, "the upload is longer than its declared total_bytes"});
+      call->finish(
+          {StatusCode::InvalidArgument, "the upload is longer than its declared total_bytes"});
       return;
     }
     state->bytes->append(chunk.data());
@@ -710,8 +733,9 @@ void RepairService::submit_fill_job(const CallPtr& call) {
       return;
     }
     if (state->bytes->size() != state->declared) {
-      call->finish({StatusCode::InvalidArgument, "upload cut off: received " + std::to_string(state->bytes->size()) +
-                                                     " of " + std::to_string(state->declared) + " bytes"});
+      call->finish({StatusCode::InvalidArgument, "upload cut off: received " +
+                                                     std::to_string(state->bytes->size()) + " of " +
+                                                     std::to_string(state->declared) + " bytes"});
       return;
     }
     v1::Job job;

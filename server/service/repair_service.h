@@ -5,14 +5,13 @@
 //! sessions, the job manager and the store. Validates every request (sizes, ids, finite
 //! coordinates, permissions) and answers each with a status.
 
+#include <boost/asio.hpp>
 #include <filesystem>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
-
-#include <boost/asio.hpp>
 
 #include "server/service/jobs.h"
 #include "server/service/metrics.h"

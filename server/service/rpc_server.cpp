@@ -137,8 +137,10 @@ void Connection::read_more() {
   if (closed_ || closing_) return;
   stream_.async_read_some(
       asio::buffer(read_buffer_),
-      asio::bind_executor(strand_, [self = shared_from_this()](const rpc::error_code& ec,
-                                                               std::size_t n) { self->on_read(ec, n); }));
+      asio::bind_executor(strand_,
+                          [self = shared_from_this()](const rpc::error_code& ec, std::size_t n) {
+                            self->on_read(ec, n);
+                          }));
 }
 
 void Connection::on_read(const rpc::error_code& ec, std::size_t bytes) {
@@ -167,7 +169,9 @@ void Connection::on_read(const rpc::error_code& ec, std::size_t bytes) {
 void Connection::protocol_error(Status status) {
   metrics_.protocol_errors.fetch_add(1);
   log_event(spdlog::level::warn, "protocol_error",
-            {{"conn_id", id_}, {"peer", peer_.address().to_string()}, {"code", rpc::to_string(status.code)},
+            {{"conn_id", id_},
+             {"peer", peer_.address().to_string()},
+             {"code", rpc::to_string(status.code)},
              {"msg", status.message}});
   go_away(std::move(status));
 }
@@ -219,12 +223,14 @@ void Connection::handle_frame(v1::Frame& frame) {
     }
     case v1::CANCEL: {
       auto it = calls_.find(frame.call_id());
-      if (it != calls_.end()) cancel_call(it->second, {StatusCode::Cancelled, "cancelled by the client"}, true);
+      if (it != calls_.end())
+        cancel_call(it->second, {StatusCode::Cancelled, "cancelled by the client"}, true);
       return;
     }
     default:
-      protocol_error({StatusCode::InvalidArgument,
-                      std::string("unexpected frame kind from a client: ") + v1::FrameKind_Name(frame.kind())});
+      protocol_error(
+          {StatusCode::InvalidArgument, std::string("unexpected frame kind from a client: ") +
+                                            v1::FrameKind_Name(frame.kind())});
       return;
   }
 }
@@ -237,7 +243,8 @@ void Connection::handle_hello(const v1::Frame& frame) {
   if (frame.protocol_version() != 1) {
     ack.mutable_status()->set_code(static_cast<int>(StatusCode::FailedPrecondition));
     ack.mutable_status()->set_message("unsupported protocol version " +
-                                      std::to_string(frame.protocol_version()) + " (server speaks 1)");
+                                      std::to_string(frame.protocol_version()) +
+                                      " (server speaks 1)");
     enqueue(ack, true);
     closing_ = true;
     flush();
@@ -263,14 +270,17 @@ void Connection::handle_hello(const v1::Frame& frame) {
   enqueue(ack, true);
   flush();
   log_event(spdlog::level::info, "connected",
-            {{"conn_id", id_}, {"peer", peer_.address().to_string()}, {"principal", principal_},
+            {{"conn_id", id_},
+             {"peer", peer_.address().to_string()},
+             {"principal", principal_},
              {"tls", stream_.is_tls()}});
 }
 
 void Connection::handle_call(v1::Frame& frame) {
   const std::uint32_t call_id = frame.call_id();
   if (calls_.count(call_id)) {
-    protocol_error({StatusCode::InvalidArgument, "call id " + std::to_string(call_id) + " is in use"});
+    protocol_error(
+        {StatusCode::InvalidArgument, "call id " + std::to_string(call_id) + " is in use"});
     return;
   }
   const rpc::MethodInfo* method = rpc::find_method(frame.method());
@@ -288,17 +298,19 @@ void Connection::handle_call(v1::Frame& frame) {
     return;
   }
   metrics_.method(method->full_name).started.fetch_add(1, std::memory_order_relaxed);
-  auto call = std::make_shared<ServerCall>(call_id, method, principal_, weak_from_this(), &metrics_);
+  auto call =
+      std::make_shared<ServerCall>(call_id, method, principal_, weak_from_this(), &metrics_);
   call->connection_id_ = id_;
   calls_[call_id] = call;
   if (frame.timeout_ms() > 0) {
-    const auto timeout = std::min<std::chrono::milliseconds>(std::chrono::milliseconds(frame.timeout_ms()),
-                                                             limits_.max_deadline);
+    const auto timeout = std::min<std::chrono::milliseconds>(
+        std::chrono::milliseconds(frame.timeout_ms()), limits_.max_deadline);
     call->deadline_ = std::make_unique<asio::steady_timer>(strand_, timeout);
     call->deadline_->async_wait([self = shared_from_this(), weak = std::weak_ptr<ServerCall>(call)](
                                     const rpc::error_code& ec) {
       if (ec) return;
-      if (auto c = weak.lock()) self->cancel_call(c, {StatusCode::DeadlineExceeded, "deadline exceeded"}, true);
+      if (auto c = weak.lock())
+        self->cancel_call(c, {StatusCode::DeadlineExceeded, "deadline exceeded"}, true);
     });
   }
   dispatcher_.start_call(call);
@@ -366,14 +378,16 @@ void Connection::enqueue_encoded(std::string bytes, bool control) {
   if (queued_bytes_ > limits_.hard_queue_bytes && !closing_) {
     // A peer that does not read: stop buffering for it (SERVICE.md §1.3 slow consumer).
     metrics_.slow_consumer_disconnects.fetch_add(1);
-    log_event(spdlog::level::warn, "slow_consumer_disconnect", {{"conn_id", id_}, {"queued_bytes", queued_bytes_}});
+    log_event(spdlog::level::warn, "slow_consumer_disconnect",
+              {{"conn_id", id_}, {"queued_bytes", queued_bytes_}});
     queue_.clear();
     control_queue_.clear();
     queued_bytes_ = 0;
     v1::Frame goaway;
     goaway.set_kind(v1::GOAWAY);
     goaway.mutable_status()->set_code(static_cast<int>(StatusCode::ResourceExhausted));
-    goaway.mutable_status()->set_message("outbound queue over its limit: the client reads too slowly");
+    goaway.mutable_status()->set_message(
+        "outbound queue over its limit: the client reads too slowly");
     std::string encoded = rpc::encode_frame(goaway);
     queued_bytes_ = encoded.size();
     control_queue_.push_back(std::move(encoded));
@@ -402,10 +416,11 @@ void Connection::flush() {
   buffers.reserve(in_flight_.size());
   for (const auto& b : in_flight_) buffers.push_back(asio::buffer(b));
   writing_ = true;
-  stream_.async_write(buffers, asio::bind_executor(strand_, [self = shared_from_this()](
-                                                                const rpc::error_code& ec, std::size_t) {
-                        self->on_written(ec);
-                      }));
+  stream_.async_write(
+      buffers, asio::bind_executor(
+                   strand_, [self = shared_from_this()](const rpc::error_code& ec, std::size_t) {
+                     self->on_written(ec);
+                   }));
 }
 
 void Connection::on_written(const rpc::error_code& ec) {
@@ -520,7 +535,12 @@ void Connection::close(const std::string& reason) {
 
 RpcServer::RpcServer(asio::io_context& io, CallDispatcher& dispatcher, const Authenticator& auth,
                      Metrics& metrics, ConnectionLimits limits)
-    : io_(io), dispatcher_(dispatcher), auth_(auth), metrics_(metrics), limits_(limits), acceptor_(io) {}
+    : io_(io),
+      dispatcher_(dispatcher),
+      auth_(auth),
+      metrics_(metrics),
+      limits_(limits),
+      acceptor_(io) {}
 
 Status RpcServer::listen(const tcp::endpoint& endpoint, const std::optional<TlsConfig>& tls) {
   if (tls && !tls->cert_file.empty()) {
@@ -530,7 +550,9 @@ Status RpcServer::listen(const tcp::endpoint& endpoint, const std::optional<TlsC
                       asio::ssl::context::no_sslv3 | asio::ssl::context::no_tlsv1 |
                       asio::ssl::context::no_tlsv1_1 | asio::ssl::context::single_dh_use);
     tls_->use_certificate_chain_file(tls->cert_file, ec);
-    if (ec) return {StatusCode::InvalidArgument, "TLS certificate " + tls->cert_file + ": " + ec.message()};
+    if (ec)
+      return {StatusCode::InvalidArgument,
+              "TLS certificate " + tls->cert_file + ": " + ec.message()};
     tls_->use_private_key_file(tls->key_file, asio::ssl::context::pem, ec);
     if (ec) return {StatusCode::InvalidArgument, "TLS key " + tls->key_file + ": " + ec.message()};
   }
@@ -591,12 +613,12 @@ void RpcServer::start_connection(rpc::ByteStream stream) {
   }
   metrics_.connections_accepted.fetch_add(1);
   metrics_.connections_open.fetch_add(1);
-  auto connection = std::make_shared<Connection>(
-      id, std::move(stream), limits_, dispatcher_, auth_, metrics_, [this](std::uint64_t closed_id) {
-        metrics_.connections_open.fetch_sub(1);
-        std::lock_guard lock(mutex_);
-        connections_.erase(closed_id);
-      });
+  auto connection = std::make_shared<Connection>(id, std::move(stream), limits_, dispatcher_, auth_,
+                                                 metrics_, [this](std::uint64_t closed_id) {
+                                                   metrics_.connections_open.fetch_sub(1);
+                                                   std::lock_guard lock(mutex_);
+                                                   connections_.erase(closed_id);
+                                                 });
   {
     std::lock_guard lock(mutex_);
     connections_[id] = connection;

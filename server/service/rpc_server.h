@@ -41,9 +41,9 @@ struct ConnectionLimits {
   std::chrono::milliseconds hello_timeout{10'000};
   std::chrono::milliseconds ping_interval{5'000};
   std::chrono::milliseconds keepalive_timeout{20'000};
-  std::chrono::milliseconds max_deadline{30'000 * 20};  //!< cap on a client's timeout_ms
-  std::size_t soft_queue_bytes = std::size_t{4} << 20;    //!< above: droppable events are dropped
-  std::size_t hard_queue_bytes = std::size_t{16} << 20;   //!< above: the connection is closed
+  std::chrono::milliseconds max_deadline{30'000 * 20};   //!< cap on a client's timeout_ms
+  std::size_t soft_queue_bytes = std::size_t{4} << 20;   //!< above: droppable events are dropped
+  std::size_t hard_queue_bytes = std::size_t{16} << 20;  //!< above: the connection is closed
   std::size_t max_connections = 10'000;
 };
 

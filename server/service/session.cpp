@@ -59,16 +59,16 @@ Status Session::recover() {
     for (const auto& row : rows) {
       v1::EditResponse response;
       if (!response.ParseFromString(row.response)) {
-        return {StatusCode::DataLoss, "journal entry " + std::to_string(row.version) + " of session " +
-                                          row_.id + " does not parse"};
+        return {StatusCode::DataLoss, "journal entry " + std::to_string(row.version) +
+                                          " of session " + row_.id + " does not parse"};
       }
       if (row.kind == JournalKind::Load) {
         return {StatusCode::DataLoss, "journal load entry " + std::to_string(row.version) +
                                           " of session " + row_.id + " has no snapshot"};
       }
       if (Status s = rpc::apply_delta(document_, response.delta()); !s.is_ok()) {
-        return {StatusCode::DataLoss, "journal entry " + std::to_string(row.version) + " of session " +
-                                          row_.id + ": " + s.message};
+        return {StatusCode::DataLoss, "journal entry " + std::to_string(row.version) +
+                                          " of session " + row_.id + ": " + s.message};
       }
       switch (row.kind) {
         case JournalKind::Edit:
@@ -188,7 +188,8 @@ Status Session::load(LoadedMesh mesh, const std::string& mesh_name, const std::s
     redo_ = std::move(previous_redo);
     return s;
   }
-  metrics_.journal_commit.observe(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  metrics_.journal_commit.observe(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   since_snapshot_ = 0;
   version_.store(document_.version, std::memory_order_release);
   geometry_.invalidate();
@@ -200,8 +201,11 @@ Status Session::load(LoadedMesh mesh, const std::string& mesh_name, const std::s
   event.mutable_resync()->set_reason("a new mesh was loaded (" + mesh_name + ")");
   broadcast(event);
   log_event(spdlog::level::info, "mesh_loaded",
-            {{"session_id", row_.id}, {"principal", principal}, {"mesh", mesh_name},
-             {"vertices", document_.alive_vertices()}, {"faces", document_.alive_faces()}});
+            {{"session_id", row_.id},
+             {"principal", principal},
+             {"mesh", mesh_name},
+             {"vertices", document_.alive_vertices()},
+             {"faces", document_.alive_faces()}});
   return {};
 }
 
@@ -233,7 +237,8 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
     log_event(spdlog::level::err, "journal_failed", {{"session_id", row_.id}, {"msg", s.message}});
     return s;
   }
-  metrics_.journal_commit.observe(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  metrics_.journal_commit.observe(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   version_.store(document_.version, std::memory_order_release);
   refresh_summary();
   v1::SessionEvent event;
@@ -251,7 +256,8 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
       return {};
     }
   }
-  if (document_.faces.empty()) return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
+  if (document_.faces.empty())
+    return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
   SessionGeometry::FillOutcome outcome = geometry_.fill(
       document_, request.selection(), request.options(),
       [call](std::size_t, std::size_t) { return call == nullptr || !call->cancelled(); });
@@ -273,7 +279,8 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
   }
   outcome.delta.set_description(description);
   *response.mutable_delta() = std::move(outcome.delta);
-  if (Status s = commit(JournalKind::Edit, 0, response, principal, request.request_id()); !s.is_ok()) {
+  if (Status s = commit(JournalKind::Edit, 0, response, principal, request.request_id());
+      !s.is_ok()) {
     geometry_.invalidate();
     return s;
   }
@@ -320,7 +327,9 @@ Status Session::redo(const std::string& principal, v1::EditResponse& response) {
   return {};
 }
 
-std::vector<v1::Hole> Session::holes() { return geometry_.holes(document_); }
+std::vector<v1::Hole> Session::holes() {
+  return geometry_.holes(document_);
+}
 
 SessionGeometry::Nearest Session::nearest_hole(const v1::Point3& point) {
   return geometry_.nearest_hole(document_, point);
@@ -337,7 +346,8 @@ Status Session::export_mesh(const v1::ExportMeshRequest& request, std::string& b
   if (!to_geometry_format(request.format(), format)) {
     return {StatusCode::InvalidArgument, "unknown export format"};
   }
-  if (document_.faces.empty()) return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
+  if (document_.faces.empty())
+    return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
   return export_document(document_, format, request.binary(), bytes);
 }
 

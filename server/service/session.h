@@ -10,13 +10,12 @@
 //! validated, journaled (committed to SQLite) and only then acknowledged and broadcast.
 
 #include <atomic>
+#include <boost/asio.hpp>
 #include <cstdint>
 #include <map>
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <boost/asio.hpp>
 
 #include "proto/rpc/mesh_document.h"
 #include "server/service/metrics.h"

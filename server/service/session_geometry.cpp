@@ -20,7 +20,8 @@ Status load_document(std::string_view bytes, geometry::MeshFormat format, const 
   geometry::ReadResult read = geometry::parse_mesh(bytes, format, read_options);
   if (!read.ok) return {StatusCode::InvalidArgument, read.error};
   if (read.soup.triangles.empty()) return {StatusCode::InvalidArgument, "the mesh has no faces"};
-  if (read.soup.points.size() > limits.max_vertices || read.soup.triangles.size() > limits.max_faces) {
+  if (read.soup.points.size() > limits.max_vertices ||
+      read.soup.triangles.size() > limits.max_faces) {
     return {StatusCode::ResourceExhausted,
             "mesh of " + std::to_string(read.soup.points.size()) + " vertices and " +
                 std::to_string(read.soup.triangles.size()) + " faces exceeds the limits (" +
@@ -50,21 +51,37 @@ Status load_document(std::string_view bytes, geometry::MeshFormat format, const 
 
 bool to_geometry_format(v1::MeshFormat format, geometry::MeshFormat& out) {
   switch (format) {
-    case v1::OFF: out = geometry::MeshFormat::Off; return true;
-    case v1::OBJ: out = geometry::MeshFormat::Obj; return true;
-    case v1::PLY: out = geometry::MeshFormat::Ply; return true;
-    case v1::STL: out = geometry::MeshFormat::Stl; return true;
-    default: return false;
+    case v1::OFF:
+      out = geometry::MeshFormat::Off;
+      return true;
+    case v1::OBJ:
+      out = geometry::MeshFormat::Obj;
+      return true;
+    case v1::PLY:
+      out = geometry::MeshFormat::Ply;
+      return true;
+    case v1::STL:
+      out = geometry::MeshFormat::Stl;
+      return true;
+    default:
+      return false;
   }
 }
 
 geometry::FillOptions to_fill_options(const v1::FillOptions& options) {
   geometry::FillOptions o;
-  if (options.refine_iterations() != 0) o.refine_iterations = static_cast<int>(options.refine_iterations());
+  if (options.refine_iterations() != 0)
+    o.refine_iterations = static_cast<int>(options.refine_iterations());
   switch (options.shape()) {
-    case v1::PATCH_SHAPE_FLAT: o.shape = geometry::PatchShape::Flat; break;
-    case v1::PATCH_SHAPE_FAIR: o.shape = geometry::PatchShape::Fair; break;
-    default: o.shape = geometry::PatchShape::Auto; break;
+    case v1::PATCH_SHAPE_FLAT:
+      o.shape = geometry::PatchShape::Flat;
+      break;
+    case v1::PATCH_SHAPE_FAIR:
+      o.shape = geometry::PatchShape::Fair;
+      break;
+    default:
+      o.shape = geometry::PatchShape::Auto;
+      break;
   }
   return o;
 }
@@ -117,7 +134,8 @@ Status export_document(const rpc::MeshDocument& document, geometry::MeshFormat f
   }
   geometry::WriteOptions options;
   options.binary = binary;
-  const geometry::WriteResult written = geometry::serialize_mesh(built.mesh, format, options, bytes);
+  const geometry::WriteResult written =
+      geometry::serialize_mesh(built.mesh, format, options, bytes);
   if (!written.ok) return {StatusCode::Internal, written.error};
   return {};
 }
@@ -234,7 +252,8 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
     const auto found = geometry::find_holes(mesh_, {.compute_projectability = false});
     std::vector<std::uint32_t> unknown;
     for (const std::uint32_t id : selection.ids().ids()) {
-      const std::uint32_t mesh_id = id < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[id] : kNoId;
+      const std::uint32_t mesh_id =
+          id < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[id] : kNoId;
       if (mesh_id == kNoId || !geometry::find_hole_by_id(found.holes, mesh_id)) {
         unknown.push_back(id);
       } else {

@@ -1,8 +1,7 @@
 #include "server/service/store.h"
 
-#include <sqlite3.h>
-
 #include <chrono>
+#include <sqlite3.h>
 #include <sstream>
 
 namespace touchmend::service {
@@ -92,7 +91,8 @@ CREATE TABLE IF NOT EXISTS jobs(
 
 std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& status) {
   sqlite3* db = nullptr;
-  if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+  if (sqlite3_open_v2(file.c_str(), &db,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
                       nullptr) != SQLITE_OK) {
     status = {StatusCode::Unavailable,
               "cannot open store " + file.string() + ": " + (db ? sqlite3_errmsg(db) : "?")};
@@ -102,8 +102,8 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& st
   std::unique_ptr<Store> store(new Store(db));
   sqlite3_busy_timeout(db, 5000);
   // WAL + FULL: a commit is on disk when sqlite3_step returns, and readers never block it.
-  for (const char* pragma : {"PRAGMA journal_mode=WAL", "PRAGMA synchronous=FULL",
-                             "PRAGMA foreign_keys=ON"}) {
+  for (const char* pragma :
+       {"PRAGMA journal_mode=WAL", "PRAGMA synchronous=FULL", "PRAGMA foreign_keys=ON"}) {
     if (Status s = store->exec(pragma); !s.is_ok()) {
       status = s;
       return nullptr;
@@ -125,7 +125,9 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& st
   return store;
 }
 
-Store::~Store() { sqlite3_close(db_); }
+Store::~Store() {
+  sqlite3_close(db_);
+}
 
 Status Store::error(const char* what) {
   const int code = sqlite3_errcode(db_);
@@ -160,9 +162,9 @@ Status Store::insert_session(const SessionRow& row) {
 Status Store::delete_session(const std::string& id) {
   std::lock_guard lock(mutex_);
   if (Status s = exec("BEGIN IMMEDIATE"); !s.is_ok()) return s;
-  for (const char* sql : {"DELETE FROM sessions WHERE id=?", "DELETE FROM session_members WHERE session_id=?",
-                          "DELETE FROM journal WHERE session_id=?",
-                          "DELETE FROM snapshots WHERE session_id=?"}) {
+  for (const char* sql :
+       {"DELETE FROM sessions WHERE id=?", "DELETE FROM session_members WHERE session_id=?",
+        "DELETE FROM journal WHERE session_id=?", "DELETE FROM snapshots WHERE session_id=?"}) {
     Statement st(db_, sql);
     st.bind_text(1, id);
     if (st.step() != SQLITE_DONE) {
@@ -174,10 +176,12 @@ Status Store::delete_session(const std::string& id) {
   return exec("COMMIT");
 }
 
-Status Store::set_member(const std::string& session_id, const std::string& principal, bool present) {
+Status Store::set_member(const std::string& session_id, const std::string& principal,
+                         bool present) {
   std::lock_guard lock(mutex_);
-  Statement st(db_, present ? "INSERT OR IGNORE INTO session_members(session_id,principal) VALUES(?,?)"
-                            : "DELETE FROM session_members WHERE session_id=? AND principal=?");
+  Statement st(db_, present
+                        ? "INSERT OR IGNORE INTO session_members(session_id,principal) VALUES(?,?)"
+                        : "DELETE FROM session_members WHERE session_id=? AND principal=?");
   st.bind_text(1, session_id);
   st.bind_text(2, principal);
   if (st.step() != SQLITE_DONE) return error("set member");
@@ -187,7 +191,8 @@ Status Store::set_member(const std::string& session_id, const std::string& princ
 std::vector<SessionRow> Store::load_sessions() {
   std::lock_guard lock(mutex_);
   std::vector<SessionRow> rows;
-  Statement st(db_, "SELECT id,name,owner,created_ms,request_id FROM sessions ORDER BY created_ms,id");
+  Statement st(db_,
+               "SELECT id,name,owner,created_ms,request_id FROM sessions ORDER BY created_ms,id");
   while (st.step() == SQLITE_ROW) {
     rows.push_back({st.text(0), st.text(1), st.text(2), {}, st.integer(3), st.text(4)});
   }
@@ -201,8 +206,9 @@ std::vector<SessionRow> Store::load_sessions() {
 
 namespace {
 bool insert_snapshot(sqlite3* db, const SnapshotRow& row) {
-  Statement st(db, "INSERT OR REPLACE INTO snapshots(session_id,version,document,undo,redo,mesh_name) "
-                   "VALUES(?,?,?,?,?,?)");
+  Statement st(db,
+               "INSERT OR REPLACE INTO snapshots(session_id,version,document,undo,redo,mesh_name) "
+               "VALUES(?,?,?,?,?,?)");
   st.bind_text(1, row.session_id);
   st.bind(2, static_cast<std::int64_t>(row.version));
   st.bind(3, row.document);
@@ -217,8 +223,9 @@ Status Store::append_journal(const JournalRow& row, const SnapshotRow* snapshot)
   std::lock_guard lock(mutex_);
   const auto start = std::chrono::steady_clock::now();
   if (Status s = exec("BEGIN IMMEDIATE"); !s.is_ok()) return s;
-  Statement st(db_, "INSERT INTO journal(session_id,version,kind,target,response,request_id,mesh_name) "
-                    "VALUES(?,?,?,?,?,?,?)");
+  Statement st(db_,
+               "INSERT INTO journal(session_id,version,kind,target,response,request_id,mesh_name) "
+               "VALUES(?,?,?,?,?,?,?)");
   st.bind_text(1, row.session_id);
   st.bind(2, static_cast<std::int64_t>(row.version));
   st.bind(3, static_cast<std::int64_t>(row.kind));
@@ -253,8 +260,9 @@ Status Store::write_snapshot(const SnapshotRow& row) {
 
 std::optional<SnapshotRow> Store::latest_snapshot(const std::string& session_id) {
   std::lock_guard lock(mutex_);
-  Statement st(db_, "SELECT version,document,undo,redo,mesh_name FROM snapshots WHERE session_id=? "
-                    "ORDER BY version DESC LIMIT 1");
+  Statement st(db_,
+               "SELECT version,document,undo,redo,mesh_name FROM snapshots WHERE session_id=? "
+               "ORDER BY version DESC LIMIT 1");
   st.bind_text(1, session_id);
   if (st.step() != SQLITE_ROW) return std::nullopt;
   SnapshotRow row;
@@ -296,7 +304,8 @@ std::vector<JournalRow> Store::journal_after(const std::string& session_id, std:
   return rows;
 }
 
-std::optional<JournalRow> Store::journal_entry(const std::string& session_id, std::uint64_t version) {
+std::optional<JournalRow> Store::journal_entry(const std::string& session_id,
+                                               std::uint64_t version) {
   std::lock_guard lock(mutex_);
   const std::string sql =
       std::string("SELECT ") + kJournalColumns + " FROM journal WHERE session_id=? AND version=?";
@@ -321,7 +330,8 @@ std::optional<JournalRow> Store::journal_by_request(const std::string& session_i
 
 Status Store::insert_job(const JobRow& row, const std::string& input) {
   std::lock_guard lock(mutex_);
-  Statement st(db_, "INSERT INTO jobs(id,principal,state,spec,input,created_ms) VALUES(?,?,?,?,?,?)");
+  Statement st(db_,
+               "INSERT INTO jobs(id,principal,state,spec,input,created_ms) VALUES(?,?,?,?,?,?)");
   st.bind_text(1, row.id);
   st.bind_text(2, row.principal);
   st.bind(3, static_cast<std::int64_t>(row.state));
@@ -334,8 +344,9 @@ Status Store::insert_job(const JobRow& row, const std::string& input) {
 
 Status Store::update_job(const JobRow& row) {
   std::lock_guard lock(mutex_);
-  Statement st(db_, "UPDATE jobs SET state=?,report=?,error_code=?,error_message=?,attempts=?,"
-                    "finished_ms=? WHERE id=?");
+  Statement st(db_,
+               "UPDATE jobs SET state=?,report=?,error_code=?,error_message=?,attempts=?,"
+               "finished_ms=? WHERE id=?");
   st.bind(1, static_cast<std::int64_t>(row.state));
   st.bind(2, row.report);
   st.bind(3, static_cast<std::int64_t>(row.error_code));
@@ -349,8 +360,9 @@ Status Store::update_job(const JobRow& row) {
 
 Status Store::set_job_result(const JobRow& row, const std::string& result) {
   std::lock_guard lock(mutex_);
-  Statement st(db_, "UPDATE jobs SET state=?,report=?,error_code=0,error_message='',attempts=?,"
-                    "finished_ms=?,result=?,result_bytes=?,input=x'' WHERE id=?");
+  Statement st(db_,
+               "UPDATE jobs SET state=?,report=?,error_code=0,error_message='',attempts=?,"
+               "finished_ms=?,result=?,result_bytes=?,input=x'' WHERE id=?");
   st.bind(1, static_cast<std::int64_t>(row.state));
   st.bind(2, row.report);
   st.bind(3, static_cast<std::int64_t>(row.attempts));
@@ -365,8 +377,9 @@ Status Store::set_job_result(const JobRow& row, const std::string& result) {
 std::vector<JobRow> Store::load_jobs() {
   std::lock_guard lock(mutex_);
   std::vector<JobRow> rows;
-  Statement st(db_, "SELECT id,principal,state,spec,report,error_code,error_message,attempts,"
-                    "created_ms,finished_ms,result_bytes FROM jobs ORDER BY created_ms,id");
+  Statement st(db_,
+               "SELECT id,principal,state,spec,report,error_code,error_message,attempts,"
+               "created_ms,finished_ms,result_bytes FROM jobs ORDER BY created_ms,id");
   while (st.step() == SQLITE_ROW) {
     JobRow row;
     row.id = st.text(0);

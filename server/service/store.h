@@ -40,10 +40,10 @@ struct JournalRow {
   std::string session_id;
   std::uint64_t version = 0;
   JournalKind kind = JournalKind::Edit;
-  std::uint64_t target = 0;   //!< Undo/Redo: the Edit version undone or redone
-  std::string response;       //!< serialized v1::EditResponse (its delta is the edit)
+  std::uint64_t target = 0;  //!< Undo/Redo: the Edit version undone or redone
+  std::string response;      //!< serialized v1::EditResponse (its delta is the edit)
   std::string request_id;
-  std::string mesh_name;      //!< Load only
+  std::string mesh_name;  //!< Load only
 };
 
 struct SnapshotRow {
@@ -58,9 +58,9 @@ struct SnapshotRow {
 struct JobRow {
   std::string id;
   std::string principal;
-  int state = 0;             //!< v1::JobState
-  std::string spec;          //!< serialized v1::JobSpec
-  std::string report;        //!< serialized v1::FillReport
+  int state = 0;       //!< v1::JobState
+  std::string spec;    //!< serialized v1::JobSpec
+  std::string report;  //!< serialized v1::FillReport
   int error_code = 0;
   std::string error_message;
   std::uint32_t attempts = 0;

@@ -6,13 +6,12 @@
 //      with the server's CPU and memory;
 //   3. batch throughput: fill jobs per second over the shared cases with the default workers.
 
-#include <sys/resource.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <fstream>
 #include <iostream>
+#include <sys/resource.h>
 #include <thread>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -61,9 +60,11 @@ ProcessUsage usage_of(pid_t pid) {
 std::string percentiles(std::vector<double> ms) {
   if (ms.empty()) return "no samples";
   std::sort(ms.begin(), ms.end());
-  auto at = [&](double q) { return ms[std::min(ms.size() - 1, std::size_t(q * double(ms.size() - 1) + 0.5))]; };
-  return fmt::format("n={} min={:.3f} p50={:.3f} p90={:.3f} p99={:.3f} max={:.3f} ms", ms.size(), ms.front(), at(0.5),
-                     at(0.9), at(0.99), ms.back());
+  auto at = [&](double q) {
+    return ms[std::min(ms.size() - 1, std::size_t(q * double(ms.size() - 1) + 0.5))];
+  };
+  return fmt::format("n={} min={:.3f} p50={:.3f} p90={:.3f} p99={:.3f} max={:.3f} ms", ms.size(),
+                     ms.front(), at(0.5), at(0.9), at(0.99), ms.back());
 }
 
 std::string annulus_off(int inner) {
@@ -81,7 +82,9 @@ void round_trip(const ServerProcess& server, int iterations) {
   v1::SessionInfo info;
   a.create_session("bench", info);
   v1::LoadMeshResponse loaded;
-  if (auto s = a.upload_mesh(info.session_id(), annulus_off(300), v1::OFF, "annulus300.off", loaded); !s.is_ok()) {
+  if (auto s =
+          a.upload_mesh(info.session_id(), annulus_off(300), v1::OFF, "annulus300.off", loaded);
+      !s.is_ok()) {
     std::cerr << "upload failed: " << s.to_string() << "\n";
     return;
   }
@@ -120,10 +123,12 @@ void round_trip(const ServerProcess& server, int iterations) {
       if (event.has_delta() && event.delta().version() == undone.version()) break;
     }
   }
-  std::cout << fmt::format("round trip, {}-vertex hole (select -> fill -> delta at a 2nd client): {}\n", boundary,
-                           percentiles(total));
-  std::cout << fmt::format("  of which the FillHoles call:                                        {}\n",
-                           percentiles(fill_only));
+  std::cout << fmt::format(
+      "round trip, {}-vertex hole (select -> fill -> delta at a 2nd client): {}\n", boundary,
+      percentiles(total));
+  std::cout << fmt::format(
+      "  of which the FillHoles call:                                        {}\n",
+      percentiles(fill_only));
 }
 
 void sweep(const ServerProcess& server, pid_t pid, int clients, double seconds) {
@@ -159,7 +164,8 @@ void sweep(const ServerProcess& server, pid_t pid, int clients, double seconds) 
       if (seq == 1) m.set_session_id(info.session_id());
       auto* tool = m.mutable_tool();
       tool->set_seq(seq);
-      tool->set_time_us(std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - start).count());
+      tool->set_time_us(
+          std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - start).count());
       tool->mutable_position()->set_x(10.0 * std::cos(seq * 0.001));
       tool->mutable_position()->set_y(10.0 * std::sin(seq * 0.001));
       tool->mutable_direction()->set_z(-1);
@@ -187,10 +193,12 @@ void sweep(const ServerProcess& server, pid_t pid, int clients, double seconds) 
   const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
   const ProcessUsage after = usage_of(pid);
   std::cout << fmt::format(
-      "sweep {:>2} clients x 1 kHz for {:.0f} s: sent {} received {} dropped {} conflated {} | server CPU {:.0f}% of "
+      "sweep {:>2} clients x 1 kHz for {:.0f} s: sent {} received {} dropped {} conflated {} | "
+      "server CPU {:.0f}% of "
       "one core, RSS {:.1f} MiB (peak {:.1f}) | sender late ticks {}\n",
       clients, elapsed, sent, received, sent - received, conflated,
-      100 * (after.cpu_seconds - before.cpu_seconds) / elapsed, after.rss_mib, after.peak_rss_mib, late_ticks);
+      100 * (after.cpu_seconds - before.cpu_seconds) / elapsed, after.rss_mib, after.peak_rss_mib,
+      late_ticks);
 }
 
 void batch(const ServerProcess& server) {
@@ -221,8 +229,9 @@ void batch(const ServerProcess& server) {
     succeeded += j.state() == v1::SUCCEEDED;
   }
   const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-  std::cout << fmt::format("batch: {} jobs ({} succeeded, {:.1f} MB of meshes) in {:.2f} s: {:.1f} jobs/s\n", ids.size(),
-                           succeeded, bytes / 1e6, elapsed, ids.size() / elapsed);
+  std::cout << fmt::format(
+      "batch: {} jobs ({} succeeded, {:.1f} MB of meshes) in {:.2f} s: {:.1f} jobs/s\n", ids.size(),
+      succeeded, bytes / 1e6, elapsed, ids.size() / elapsed);
 }
 
 }  // namespace
@@ -234,8 +243,10 @@ int main(int argc, char** argv) {
   std::vector<int> sweep_clients = {1, 8, 32};
   bool skip_sweep = false;
   app.add_option("--iterations", iterations, "Round trips to measure")->capture_default_str();
-  app.add_option("--sweep-seconds", sweep_seconds, "Duration of each sweep run")->capture_default_str();
-  app.add_option("--sweep-clients", sweep_clients, "Client counts for the sweep runs")->capture_default_str();
+  app.add_option("--sweep-seconds", sweep_seconds, "Duration of each sweep run")
+      ->capture_default_str();
+  app.add_option("--sweep-clients", sweep_clients, "Client counts for the sweep runs")
+      ->capture_default_str();
   app.add_flag("--skip-sweep", skip_sweep, "Only the round trip and the batch");
   CLI11_PARSE(app, argc, argv);
 
@@ -245,7 +256,8 @@ int main(int argc, char** argv) {
     std::cerr << "could not start touchmend-server\n" << server.log();
     return 1;
   }
-  std::cout << fmt::format("machine: {} cores; server {}\n", std::thread::hardware_concurrency(), TOUCHMEND_SERVER_PATH);
+  std::cout << fmt::format("machine: {} cores; server {}\n", std::thread::hardware_concurrency(),
+                           TOUCHMEND_SERVER_PATH);
   round_trip(server, iterations);
   if (!skip_sweep) {
     for (int n : sweep_clients) sweep(server, server.pid(), n, sweep_seconds);

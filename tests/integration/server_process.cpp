@@ -1,13 +1,13 @@
 #include "tests/integration/server_process.h"
 
+#include <cstdio>
 #include <fcntl.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <fstream>
+#include <signal.h>
 #include <sstream>
+#include <sys/wait.h>
 #include <thread>
+#include <unistd.h>
 
 namespace touchmend::testing {
 
@@ -34,9 +34,15 @@ bool ServerProcess::start() {
   std::filesystem::create_directories(data_dir_);
   std::filesystem::remove(port_file);
   log_file_ = data_dir_ / "server.log";
-  std::vector<std::string> argv = {TOUCHMEND_SERVER_PATH, "--listen", "127.0.0.1:0", "--data-dir",
-                                   (data_dir_ / "store").string(), "--port-file", port_file.string(),
-                                   "--metrics", "127.0.0.1:0"};
+  std::vector<std::string> argv = {TOUCHMEND_SERVER_PATH,
+                                   "--listen",
+                                   "127.0.0.1:0",
+                                   "--data-dir",
+                                   (data_dir_ / "store").string(),
+                                   "--port-file",
+                                   port_file.string(),
+                                   "--metrics",
+                                   "127.0.0.1:0"};
   argv.insert(argv.end(), args_.begin(), args_.end());
   pid_ = ::fork();
   if (pid_ < 0) return false;
@@ -83,7 +89,9 @@ int ServerProcess::stop(int signal) {
   return -1;
 }
 
-std::string ServerProcess::log() const { return read_binary_file(log_file_); }
+std::string ServerProcess::log() const {
+  return read_binary_file(log_file_);
+}
 
 net::ChannelOptions ServerProcess::options(const std::string& token) const {
   net::ChannelOptions o;
@@ -96,7 +104,10 @@ net::ChannelOptions ServerProcess::options(const std::string& token) const {
 
 std::shared_ptr<net::Channel> ServerProcess::connect(const std::string& token) const {
   net::Status status;
-  return net::Channel::connect(options(token), status);
+  auto channel = net::Channel::connect(options(token), status);
+  if (!channel)
+    std::fprintf(stderr, "connect to 127.0.0.1:%u failed: %s\n", port_, status.to_string().c_str());
+  return channel;
 }
 
 std::string read_binary_file(const std::filesystem::path& path) {
@@ -111,6 +122,8 @@ void write_binary_file(const std::filesystem::path& path, const std::string& byt
   out << bytes;
 }
 
-std::filesystem::path shared_data() { return TOUCHMEND_SHARED_DATA_DIR; }
+std::filesystem::path shared_data() {
+  return TOUCHMEND_SHARED_DATA_DIR;
+}
 
 }  // namespace touchmend::testing

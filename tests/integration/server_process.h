@@ -4,13 +4,12 @@
 //! \brief Starts a real touchmend-server process on loopback for integration tests (a free
 //! port from --listen 127.0.0.1:0 and --port-file), and stops or kills it.
 
-#include <sys/types.h>
-
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <sys/types.h>
 #include <vector>
 
 #include "client/net/channel.h"

@@ -19,7 +19,8 @@ v1::Frame message(std::uint32_t call, std::string payload) {
 
 TEST(FrameCodec, RoundTripsFramesFedOneByteAtATime) {
   std::string wire;
-  for (std::uint32_t i = 1; i <= 20; ++i) encode_frame(message(i, std::string(i * 37, 'a' + i % 26)), wire);
+  for (std::uint32_t i = 1; i <= 20; ++i)
+    encode_frame(message(i, std::string(i * 37, 'a' + i % 26)), wire);
   FrameDecoder decoder;
   std::vector<v1::Frame> frames;
   for (char c : wire) {
