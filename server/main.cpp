@@ -91,6 +91,9 @@ int main(int argc, char** argv) {
   unsigned hello_timeout_ms = 10'000;
   unsigned keepalive_timeout_ms = 20'000;
   unsigned max_frame_kb = 1024;
+  unsigned queue_soft_kb = 4096;
+  unsigned queue_hard_kb = 16384;
+  unsigned socket_send_buffer_kb = 1024;
   app.add_option("--listen", listen,
                  "Address and port to serve on (HOST:PORT; port 0 picks a free one)")
       ->capture_default_str();
@@ -127,6 +130,20 @@ int main(int argc, char** argv) {
   app.add_option("--max-frame-kb", max_frame_kb, "Largest frame accepted")
       ->capture_default_str()
       ->check(CLI::Range(64, 16384));
+  app.add_option("--queue-soft-kb", queue_soft_kb,
+                 "Per-connection outbound queue above which live events to a slow subscriber are\n"
+                 "dropped (it gets a resync notice once it catches up)")
+      ->capture_default_str()
+      ->check(CLI::Range(16, 1 << 20));
+  app.add_option("--queue-hard-kb", queue_hard_kb,
+                 "Per-connection outbound queue above which the connection is closed")
+      ->capture_default_str()
+      ->check(CLI::Range(32, 1 << 21));
+  app.add_option(
+         "--socket-send-buffer-kb", socket_send_buffer_kb,
+         "Kernel send buffer per connection (bounds what a slow reader holds in the kernel)")
+      ->capture_default_str()
+      ->check(CLI::Range(4, 1 << 16));
   app.add_option("--hello-timeout-ms", hello_timeout_ms,
                  "A connection must authenticate within this")
       ->capture_default_str()
@@ -217,6 +234,10 @@ int main(int argc, char** argv) {
   ConnectionLimits connection_limits;
   connection_limits.max_frame_bytes = std::size_t{max_frame_kb} << 10;
   connection_limits.hello_timeout = std::chrono::milliseconds(hello_timeout_ms);
+  connection_limits.soft_queue_bytes = std::size_t{queue_soft_kb} << 10;
+  connection_limits.socket_send_buffer_bytes = std::size_t{socket_send_buffer_kb} << 10;
+  connection_limits.hard_queue_bytes = std::max<std::size_t>(
+      std::size_t{queue_hard_kb} << 10, connection_limits.soft_queue_bytes * 2);
   connection_limits.keepalive_timeout = std::chrono::milliseconds(keepalive_timeout_ms);
   connection_limits.ping_interval =
       std::min(connection_limits.ping_interval, connection_limits.keepalive_timeout / 4);

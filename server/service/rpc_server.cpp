@@ -108,6 +108,12 @@ Connection::Connection(std::uint64_t id, rpc::ByteStream stream, const Connectio
 void Connection::start() {
   asio::dispatch(strand_, [self = shared_from_this()] {
     rpc::tune_socket(self->stream_.socket());
+    if (self->limits_.socket_send_buffer_bytes > 0) {
+      rpc::error_code ignored;
+      self->stream_.socket().set_option(asio::socket_base::send_buffer_size(static_cast<int>(
+                                            self->limits_.socket_send_buffer_bytes)),
+                                        ignored);
+    }
     // Slowloris defence: the TLS handshake and HELLO must both arrive within hello_timeout.
     self->hello_timer_.expires_after(self->limits_.hello_timeout);
     self->hello_timer_.async_wait([self](const rpc::error_code& ec) {

@@ -45,6 +45,9 @@ struct ConnectionLimits {
   std::size_t soft_queue_bytes = std::size_t{4} << 20;   //!< above: droppable events are dropped
   std::size_t hard_queue_bytes = std::size_t{16} << 20;  //!< above: the connection is closed
   std::size_t max_connections = 10'000;
+  //! SO_SNDBUF of each connection (0: the kernel's autotuning, which lets several MiB per
+  //! connection pile up in the kernel, out of reach of the slow-consumer policy).
+  std::size_t socket_send_buffer_bytes = std::size_t{1} << 20;
 };
 
 //! Decides who a HELLO's token belongs to.

@@ -5,6 +5,11 @@
 #include "server/geometry/metrics.h"
 
 namespace touchmend::service {
+using geometry::FaceHandle;
+using geometry::VertexHandle;
+}  // namespace touchmend::service
+
+namespace touchmend::service {
 
 using rpc::StatusCode;
 
@@ -286,30 +291,40 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
   vertex_map.resize(mesh_.n_vertices(), kNoId);
   outcome.report.set_holes_found(static_cast<std::uint32_t>(report.holes_found));
   for (const std::uint32_t id : report.unknown_ids) outcome.report.add_unknown_ids(doc_vertex(id));
+  // New elements get document ids in handle order, the order garbage collection keeps, so an
+  // export lists them exactly as an in-process fill written to a file does.
+  std::vector<VertexHandle> new_vertices;
+  std::vector<FaceHandle> new_faces;
   for (const auto& h : report.holes) {
     v1::HoleFillResult* r = outcome.report.add_holes();
     to_proto(h, *r);
     r->set_hole_id(doc_vertex(h.hole_id));
     if (!h.filled) continue;
     for (const auto v : h.new_vertices) {
-      if (mesh_.status(v).deleted()) continue;
-      const auto& p = mesh_.point(v);
-      vertex_map[static_cast<std::size_t>(v.idx())] = next_vertex;
-      pending_vertex_map_.push_back(static_cast<std::uint32_t>(v.idx()));
-      pending_vertex_map_.push_back(next_vertex);
-      delta.add_added_vertex_ids(next_vertex++);
-      delta.add_added_positions(p[0]);
-      delta.add_added_positions(p[1]);
-      delta.add_added_positions(p[2]);
+      if (!mesh_.status(v).deleted()) new_vertices.push_back(v);
     }
     for (const auto f : h.new_faces) {
-      if (mesh_.status(f).deleted()) continue;
-      pending_face_map_.push_back(static_cast<std::uint32_t>(f.idx()));
-      pending_face_map_.push_back(next_face);
-      delta.add_added_face_ids(next_face++);
-      for (const auto v : mesh_.fv_range(f)) {
-        delta.add_added_faces(vertex_map[static_cast<std::size_t>(v.idx())]);
-      }
+      if (!mesh_.status(f).deleted()) new_faces.push_back(f);
+    }
+  }
+  std::sort(new_vertices.begin(), new_vertices.end());
+  std::sort(new_faces.begin(), new_faces.end());
+  for (const auto v : new_vertices) {
+    const auto& p = mesh_.point(v);
+    vertex_map[static_cast<std::size_t>(v.idx())] = next_vertex;
+    pending_vertex_map_.push_back(static_cast<std::uint32_t>(v.idx()));
+    pending_vertex_map_.push_back(next_vertex);
+    delta.add_added_vertex_ids(next_vertex++);
+    delta.add_added_positions(p[0]);
+    delta.add_added_positions(p[1]);
+    delta.add_added_positions(p[2]);
+  }
+  for (const auto f : new_faces) {
+    pending_face_map_.push_back(static_cast<std::uint32_t>(f.idx()));
+    pending_face_map_.push_back(next_face);
+    delta.add_added_face_ids(next_face++);
+    for (const auto v : mesh_.fv_range(f)) {
+      delta.add_added_faces(vertex_map[static_cast<std::size_t>(v.idx())]);
     }
   }
   pending_version_ = document.version + 1;

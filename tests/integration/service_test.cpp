@@ -5,6 +5,7 @@
 #include <future>
 #include <random>
 #include <signal.h>
+#include <sys/wait.h>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -612,6 +613,145 @@ TEST(Service, TlsClientsConnectAndPlainClientsAreRefused) {
   EXPECT_EQ(status.code, StatusCode::Unavailable) << status.to_string();
 
   EXPECT_TRUE(client.list_holes(session, holes).is_ok());
+}
+
+TEST(Service, ASlowSubscriberLosesEventsNotTheServersMemory) {
+  TempDir dir;
+  ServerProcess server(dir.path(), {"--queue-soft-kb", "64", "--queue-hard-kb", "65536",
+                                    "--socket-send-buffer-kb", "16"});
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient editor(channel);
+  const std::string session = make_session(editor, "slow");
+  v1::SessionInfo info;
+  ASSERT_TRUE(editor.open_session(session, info).is_ok());
+
+  // A subscriber that stops reading: a raw socket with a tiny receive window.
+  asio::io_context io;
+  asio::ip::tcp::socket slow(io);
+  slow.open(asio::ip::tcp::v4());
+  slow.set_option(asio::socket_base::receive_buffer_size(4096));
+  slow.connect({asio::ip::make_address("127.0.0.1"), server.port()});
+  v1::Frame hello;
+  hello.set_kind(v1::HELLO);
+  hello.set_protocol_version(1);
+  v1::SubscribeRequest subscribe;
+  subscribe.set_session_id(session);
+  subscribe.set_after_version(info.version());
+  v1::Frame call;
+  call.set_kind(v1::CALL);
+  call.set_call_id(1);
+  call.set_method(rpc::method_path("Subscribe"));
+  call.set_payload(subscribe.SerializeAsString());
+  call.set_end_of_stream(true);
+  asio::write(slow, asio::buffer(rpc::encode_frame(hello) + rpc::encode_frame(call)));
+
+  // Meanwhile the session changes a lot (each fill/undo pair is about 9 KB of deltas).
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(editor.list_holes(session, holes).is_ok());
+  std::uint64_t last_version = 0;
+  for (int i = 0; i < 60; ++i) {
+    v1::EditResponse edit;
+    ASSERT_TRUE(editor.fill_holes(fill_request(session, holes.holes(0).id()), edit).is_ok());
+    ASSERT_TRUE(editor.undo(session, edit).is_ok());
+    last_version = edit.version();
+  }
+  // The editor was never slowed down, and the server still answers.
+  EXPECT_TRUE(server_answers(server));
+
+  // Now the slow subscriber reads: it got some deltas, then a resync notice naming a version
+  // to download, and the connection is still open.
+  std::string received;
+  slow.non_blocking(true);
+  rpc::FrameDecoder decoder;
+  bool resync = false;
+  std::size_t deltas = 0;
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (!resync && std::chrono::steady_clock::now() < deadline) {
+    std::array<char, 65536> buf;
+    boost::system::error_code ec;
+    const std::size_t n = slow.read_some(asio::buffer(buf), ec);
+    if (ec == asio::error::would_block) {
+      std::this_thread::sleep_for(5ms);
+      continue;
+    }
+    ASSERT_FALSE(ec) << ec.message();
+    decoder.feed(std::string_view(buf.data(), n));
+    v1::Frame f;
+    while (decoder.next(f) == rpc::FrameDecoder::Result::Frame) {
+      if (f.kind() != v1::MESSAGE || f.call_id() != 1) continue;
+      v1::SessionEvent event;
+      ASSERT_TRUE(event.ParseFromString(f.payload()));
+      if (event.has_delta()) ++deltas;
+      if (event.has_resync()) {
+        resync = true;
+        EXPECT_GE(event.resync().version(), deltas);
+        EXPECT_LE(event.resync().version(), last_version);
+      }
+    }
+  }
+  EXPECT_TRUE(resync);
+  EXPECT_LT(deltas, 120u);  // some were dropped instead of queued
+  RawResult metrics = raw_exchange(
+      server.metrics_port(), "GET /metrics HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(metrics.received.find("touchmend_deltas_dropped_total "), std::string::npos);
+  EXPECT_EQ(metrics.received.find("touchmend_deltas_dropped_total 0\n"), std::string::npos);
+  EXPECT_NE(metrics.received.find("touchmend_slow_consumer_resyncs_total"), std::string::npos);
+}
+
+// The `touchmend` command line against a server: the same results and exit codes as in-process.
+int run_cli(const std::string& args, std::string* output = nullptr) {
+  TempDir out_dir;
+  const auto out_file = out_dir.path() / "stdout.txt";
+  const std::string command =
+      std::string(TOUCHMEND_CLI_PATH) + " " + args + " > " + out_file.string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  if (output) *output = read_binary_file(out_file);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(Service, CommandLineAgainstAServer) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  const std::string address = "--server 127.0.0.1:" + std::to_string(server.port());
+  const std::string sample = TOUCHMEND_SAMPLE_MESH;
+  std::string output;
+
+  ASSERT_EQ(run_cli(address + " holes " + sample, &output), 0) << output;
+  EXPECT_NE(output.find("complex"), std::string::npos) << output;
+
+  const auto remote = dir.path() / "remote.off";
+  const auto local = dir.path() / "local.off";
+  ASSERT_EQ(run_cli(address + " fill " + sample + " --all -o " + remote.string(), &output), 0)
+      << output;
+  ASSERT_EQ(run_cli("fill " + sample + " --all -o " + local.string(), &output), 0) << output;
+  EXPECT_EQ(read_binary_file(remote), read_binary_file(local));
+
+  const auto from_job = dir.path() / "job.off";
+  ASSERT_EQ(
+      run_cli(address + " job submit " + sample + " --all --wait -o " + from_job.string(), &output),
+      0)
+      << output;
+  EXPECT_EQ(read_binary_file(from_job), read_binary_file(local));
+  ASSERT_EQ(run_cli(address + " job submit " + sample + " --hole 224", &output), 0) << output;
+  const std::string job_id = output.substr(0, output.find('\n'));
+  EXPECT_EQ(job_id.size(), 32u);
+  ASSERT_EQ(run_cli(address + " job wait " + job_id, &output), 0) << output;
+  EXPECT_NE(output.find("filled 1 of 1"), std::string::npos) << output;
+  EXPECT_EQ(run_cli(address + " job status " + job_id + " --json", &output), 0);
+  EXPECT_NE(output.find("SUCCEEDED"), std::string::npos) << output;
+
+  // Bad input is exit code 1, usage 2, an unreachable server 4.
+  EXPECT_EQ(run_cli(address + " fill " + sample + " --hole 999999 -o " + remote.string(), &output),
+            1)
+      << output;
+  EXPECT_NE(output.find("999999"), std::string::npos) << output;
+  EXPECT_EQ(run_cli(address + " job status no-such-job", &output), 1) << output;
+  EXPECT_EQ(run_cli("job list", &output), 2) << output;
+  EXPECT_EQ(run_cli("--server 127.0.0.1:1 holes " + sample, &output), 4) << output;
+  EXPECT_NE(output.find("UNAVAILABLE"), std::string::npos) << output;
 }
 
 TEST(Service, MetricsAndHealthOverHttp) {
