@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_set>
 
 namespace touchmend::rpc {
 
@@ -22,13 +23,6 @@ bool finite3(const double* p) {
   return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
 }
 
-// Where an "added" id may go: the next free slot (appending, possibly several in order) or a
-// dead slot. Returns false for an alive slot or a gap.
-bool can_add(std::size_t id, std::size_t size, const std::vector<std::uint8_t>& alive) {
-  if (id == size) return true;
-  return id < size && alive[id] == 0;
-}
-
 }  // namespace
 
 Status apply_delta(MeshDocument& document, const v1::MeshDelta& delta) {
@@ -44,84 +38,113 @@ Status apply_delta(MeshDocument& document, const v1::MeshDelta& delta) {
       delta.added_faces_size() != 3 * delta.added_face_ids_size()) {
     return invalid("delta arrays have inconsistent lengths");
   }
-  // Validate everything against a scratch view first so a bad delta changes nothing.
-  MeshDocument next = document;
+  // Validate against the document plus what the delta itself adds or removes (so a bad delta
+  // changes nothing), then apply in place: no copy of the whole document per edit.
+  const std::size_t nv = document.positions.size();
+  const std::size_t nf = document.faces.size();
+  std::unordered_set<std::uint32_t> removed_f, removed_v, revived_v, revived_f;
   for (std::uint32_t f : delta.removed_faces()) {
-    if (f >= next.faces.size() || !next.face_alive[f]) {
+    if (f >= nf || !document.face_alive[f] || !removed_f.insert(f).second) {
       return invalid("delta removes face " + std::to_string(f) + " which is not alive");
     }
-    next.face_alive[f] = 0;
   }
   for (std::uint32_t v : delta.removed_vertices()) {
-    if (v >= next.positions.size() || !next.vertex_alive[v]) {
+    if (v >= nv || !document.vertex_alive[v] || !removed_v.insert(v).second) {
       return invalid("delta removes vertex " + std::to_string(v) + " which is not alive");
     }
-    next.vertex_alive[v] = 0;
   }
+  std::size_t appended_v = 0;
   for (int i = 0; i < delta.added_vertex_ids_size(); ++i) {
     const std::uint32_t v = delta.added_vertex_ids(i);
-    const double* p = delta.added_positions().data() + 3 * i;
-    if (!finite3(p)) return invalid("delta adds vertex " + std::to_string(v) + " at NaN/inf");
-    if (!can_add(v, next.positions.size(), next.vertex_alive)) {
+    if (!finite3(delta.added_positions().data() + 3 * i)) {
+      return invalid("delta adds vertex " + std::to_string(v) + " at NaN/inf");
+    }
+    const bool append = v == nv + appended_v;
+    const bool revive =
+        v < nv && (!document.vertex_alive[v] || removed_v.count(v)) && revived_v.insert(v).second;
+    if (!append && !revive) {
       return invalid("delta adds vertex " + std::to_string(v) + " into a used or far slot");
     }
-    if (v == next.positions.size()) {
-      next.positions.push_back({p[0], p[1], p[2]});
-      next.vertex_alive.push_back(1);
-    } else {
-      next.positions[v] = {p[0], p[1], p[2]};
-      next.vertex_alive[v] = 1;
-    }
+    if (append) ++appended_v;
   }
+  const auto alive_after = [&](std::uint32_t v) {
+    if (v >= nv) return v < nv + appended_v;
+    if (revived_v.count(v)) return true;
+    return document.vertex_alive[v] != 0 && !removed_v.count(v);
+  };
   for (int i = 0; i < delta.moved_vertex_ids_size(); ++i) {
     const std::uint32_t v = delta.moved_vertex_ids(i);
-    const double* p = delta.moved_positions().data() + 3 * i;
-    if (v >= next.positions.size() || !next.vertex_alive[v]) {
+    if (!alive_after(v))
       return invalid("delta moves vertex " + std::to_string(v) + " which is not alive");
+    if (!finite3(delta.moved_positions().data() + 3 * i)) {
+      return invalid("delta moves vertex " + std::to_string(v) + " to NaN/inf");
     }
-    if (!finite3(p)) return invalid("delta moves vertex " + std::to_string(v) + " to NaN/inf");
-    next.positions[v] = {p[0], p[1], p[2]};
   }
+  std::size_t appended_f = 0;
   for (int i = 0; i < delta.added_face_ids_size(); ++i) {
     const std::uint32_t f = delta.added_face_ids(i);
-    std::array<std::uint32_t, 3> corners{};
-    for (int k = 0; k < 3; ++k) {
-      corners[k] = delta.added_faces(3 * i + k);
-      if (corners[k] >= next.positions.size() || !next.vertex_alive[corners[k]]) {
-        return invalid("delta adds face " + std::to_string(f) + " on vertex " +
-                       std::to_string(corners[k]) + " which is not alive");
+    const std::uint32_t c0 = delta.added_faces(3 * i), c1 = delta.added_faces(3 * i + 1),
+                        c2 = delta.added_faces(3 * i + 2);
+    for (std::uint32_t c : {c0, c1, c2}) {
+      if (!alive_after(c)) {
+        return invalid("delta adds face " + std::to_string(f) + " on vertex " + std::to_string(c) +
+                       " which is not alive");
       }
     }
-    if (corners[0] == corners[1] || corners[1] == corners[2] || corners[0] == corners[2]) {
+    if (c0 == c1 || c1 == c2 || c0 == c2) {
       return invalid("delta adds face " + std::to_string(f) + " with a repeated corner");
     }
-    if (!can_add(f, next.faces.size(), next.face_alive)) {
+    const bool append = f == nf + appended_f;
+    const bool revive =
+        f < nf && (!document.face_alive[f] || removed_f.count(f)) && revived_f.insert(f).second;
+    if (!append && !revive) {
       return invalid("delta adds face " + std::to_string(f) + " into a used or far slot");
     }
-    if (f == next.faces.size()) {
-      next.faces.push_back(corners);
-      next.face_alive.push_back(1);
-    } else {
-      next.faces[f] = corners;
-      next.face_alive[f] = 1;
-    }
+    if (append) ++appended_f;
   }
-  // A removed vertex may not keep alive faces.
-  if (delta.removed_vertices_size() > 0) {
-    std::vector<std::uint8_t> removed(next.positions.size(), 0);
-    for (std::uint32_t v : delta.removed_vertices()) removed[v] = 1;
-    for (std::size_t f = 0; f < next.faces.size(); ++f) {
-      if (!next.face_alive[f]) continue;
-      for (std::uint32_t c : next.faces[f]) {
-        if (removed[c] && !next.vertex_alive[c]) {
+  // A removed vertex may not keep alive faces (those of the document not removed here).
+  if (!removed_v.empty()) {
+    for (std::size_t f = 0; f < nf; ++f) {
+      if (!document.face_alive[f] || removed_f.count(static_cast<std::uint32_t>(f))) continue;
+      for (std::uint32_t c : document.faces[f]) {
+        if (removed_v.count(c) && !revived_v.count(c)) {
           return invalid("delta removes vertex " + std::to_string(c) + " still used by face " +
                          std::to_string(f));
         }
       }
     }
   }
-  next.version = delta.version();
-  document = std::move(next);
+  // Apply.
+  for (std::uint32_t f : delta.removed_faces()) document.face_alive[f] = 0;
+  for (std::uint32_t v : delta.removed_vertices()) document.vertex_alive[v] = 0;
+  for (int i = 0; i < delta.added_vertex_ids_size(); ++i) {
+    const std::uint32_t v = delta.added_vertex_ids(i);
+    const double* p = delta.added_positions().data() + 3 * i;
+    if (v == document.positions.size()) {
+      document.positions.push_back({p[0], p[1], p[2]});
+      document.vertex_alive.push_back(1);
+    } else {
+      document.positions[v] = {p[0], p[1], p[2]};
+      document.vertex_alive[v] = 1;
+    }
+  }
+  for (int i = 0; i < delta.moved_vertex_ids_size(); ++i) {
+    const double* p = delta.moved_positions().data() + 3 * i;
+    document.positions[delta.moved_vertex_ids(i)] = {p[0], p[1], p[2]};
+  }
+  for (int i = 0; i < delta.added_face_ids_size(); ++i) {
+    const std::uint32_t f = delta.added_face_ids(i);
+    const std::array<std::uint32_t, 3> corners{
+        delta.added_faces(3 * i), delta.added_faces(3 * i + 1), delta.added_faces(3 * i + 2)};
+    if (f == document.faces.size()) {
+      document.faces.push_back(corners);
+      document.face_alive.push_back(1);
+    } else {
+      document.faces[f] = corners;
+      document.face_alive[f] = 1;
+    }
+  }
+  document.version = delta.version();
   return {};
 }
 

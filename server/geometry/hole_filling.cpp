@@ -471,11 +471,13 @@ std::size_t FillReport::left_open() const {
 }
 
 FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOptions& options,
-                      const FillProgress& progress) {
+                      const FillProgress& progress, HoleSearchResult* known_holes) {
   FillReport report;
   // The O(n^2) projectability test runs only for the holes selected (below), not for every
   // boundary of the mesh: an interactive fill of one hole should not pay for the others.
-  HoleSearchResult found = find_holes(mesh, {.compute_projectability = false});
+  HoleSearchResult searched;
+  if (!known_holes) searched = find_holes(mesh, {.compute_projectability = false});
+  HoleSearchResult& found = known_holes ? *known_holes : searched;
   report.holes_found = found.holes.size();
   std::vector<Hole*> selected;
   switch (selection.mode) {
@@ -512,7 +514,9 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
                                    selection.max_boundary);
       report.holes.push_back(std::move(skipped));
     } else {
-      compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
+      if (!selected[i]->projectability_computed) {
+        compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
+      }
       report.holes.push_back(fill_hole_cached(mesh, hole, options, longest_edge));
     }
     if (progress && !progress(i + 1, selected.size())) break;

@@ -103,8 +103,10 @@ struct FillReport {
 //! Called after each hole with (holes done, holes selected); return false to stop early.
 using FillProgress = std::function<bool(std::size_t done, std::size_t total)>;
 
-//! Finds the holes and fills the selected ones in id order.
+//! Finds the holes and fills the selected ones in id order. A caller that already searched
+//! the current mesh (an interactive session between edits) passes \p known_holes to skip the
+//! search; properties computed for the selected holes are stored back into it.
 FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOptions& options = {},
-                      const FillProgress& progress = {});
+                      const FillProgress& progress = {}, HoleSearchResult* known_holes = nullptr);
 
 }  // namespace touchmend::geometry

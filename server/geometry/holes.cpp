@@ -119,6 +119,7 @@ void compute_hole_properties(const Mesh& mesh, Hole& hole, bool compute_projecta
   hole.is_simple = false;
   hole.reference_source = "none";
   hole.reference_normal = hole.normal;
+  hole.projectability_computed = compute_projectability;
   if (!compute_projectability || n < 3) return;
   // Fallback chain (ALGORITHMS.md §1.4): boundary-triangle average (unless it nearly cancels,
   // as at the open end of a tube), then the Newell normal, then the least-squares plane.

@@ -34,6 +34,8 @@ struct Hole {
   bool is_simple = false;
   Vec3 reference_normal{0, 0, 1};  //!< the plane normal that made it simple (if simple)
   std::string reference_source;    //!< "boundary-triangles", "newell", "pca" or "none"
+  //! Whether is_simple/reference_* were computed (find_holes can skip the O(n^2) test).
+  bool projectability_computed = false;
   //! Empty when the hole can be filled; otherwise why not (e.g. a non-manifold vertex).
   std::string unfillable_reason;
 

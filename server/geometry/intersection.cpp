@@ -164,6 +164,21 @@ bool triangles_intersect(const TrianglePoints& t1, const std::array<int, 3>& ids
     const int c1 = sign(orient3d(t1[0], t1[1], t1[2], a2), eps);
     const int c2 = sign(orient3d(t1[0], t1[1], t1[2], b2), eps);
     if (c1 == 0 && c2 == 0) {  // coplanar fan: overlap if the wedges overlap
+      // The triangles lie in their wedges at the shared corner; a line through that corner
+      // along one triangle's edge with the other triangle's free corners strictly on the far
+      // side separates them (they meet only at the corner). Fans of a flat patch are almost
+      // always separated this way.
+      const Flat f(n1);
+      const Vec3& v = t1[i];
+      const auto strictly_beyond = [&f, &v](const Vec3& ray, const Vec3& inside, const Vec3& p,
+                                            const Vec3& q) {
+        const double side = f.orient(v, ray, inside);
+        return side * f.orient(v, ray, p) < 0 && side * f.orient(v, ray, q) < 0;
+      };
+      if (strictly_beyond(a1, b1, a2, b2) || strictly_beyond(b1, a1, a2, b2) ||
+          strictly_beyond(a2, b2, a1, b1) || strictly_beyond(b2, a2, a1, b1)) {
+        return false;
+      }
       return coplanar_triangles_overlap(t1, t2, n1);
     }
     return segment_intersects_triangle(a1, b1, t2) || segment_intersects_triangle(a2, b2, t1);

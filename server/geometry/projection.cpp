@@ -62,8 +62,18 @@ std::size_t count_self_intersections(std::span<const Point2> polygon) {
     boxes[i].extend(polygon[i]);
     boxes[i].extend(polygon[(i + 1) % n]);
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t j = i + 1; j < n; ++j) {
+  // Sweep over x: only edges whose x-ranges overlap are compared, so a hole of hundreds of
+  // boundary vertices costs about n log n instead of n^2 pair tests. (A coincidence of two
+  // loop vertices makes both edges' boxes contain the point, so it is met by the sweep too.)
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return boxes[a].min().x() < boxes[b].min().x(); });
+  for (std::size_t a = 0; a < n; ++a) {
+    const std::size_t ea = order[a];
+    for (std::size_t b = a + 1; b < n && boxes[order[b]].min().x() <= boxes[ea].max().x(); ++b) {
+      const std::size_t i = std::min(ea, order[b]);
+      const std::size_t j = std::max(ea, order[b]);
       const bool adjacent = j == i + 1 || (i == 0 && j == n - 1);
       if (!adjacent && polygon[i] == polygon[j]) {
         ++count;  // two distinct loop vertices at the same 2D point

@@ -167,6 +167,12 @@ void SessionGeometry::sync(const rpc::MeshDocument& document) {
   }
   version_ = document.version;
   valid_ = true;
+  holes_.reset();
+}
+
+geometry::HoleSearchResult& SessionGeometry::search() {
+  if (!holes_) holes_ = geometry::find_holes(mesh_, {.compute_projectability = false});
+  return *holes_;
 }
 
 std::uint32_t SessionGeometry::doc_vertex(std::size_t mesh_index) const {
@@ -195,7 +201,10 @@ v1::Hole SessionGeometry::hole_to_proto(const geometry::Hole& hole) const {
 std::vector<v1::Hole> SessionGeometry::holes(const rpc::MeshDocument& document) {
   sync(document);
   std::vector<v1::Hole> out;
-  for (const auto& h : geometry::find_holes(mesh_).holes) out.push_back(hole_to_proto(h));
+  for (auto& h : search().holes) {
+    if (!h.projectability_computed) geometry::compute_hole_properties(mesh_, h, true);
+    out.push_back(hole_to_proto(h));
+  }
   return out;
 }
 
@@ -203,11 +212,11 @@ SessionGeometry::Nearest SessionGeometry::nearest_hole(const rpc::MeshDocument& 
                                                        const v1::Point3& point) {
   sync(document);
   Nearest result;
-  const auto found = geometry::find_holes(mesh_, {.compute_projectability = false});
+  auto& found = search();
   const geometry::Vec3 p(point.x(), point.y(), point.z());
   if (const auto nearest = geometry::find_nearest_hole(mesh_, found.holes, p)) {
-    geometry::Hole hole = found.holes[nearest->index];
-    geometry::compute_hole_properties(mesh_, hole, true);
+    geometry::Hole& hole = found.holes[nearest->index];
+    if (!hole.projectability_computed) geometry::compute_hole_properties(mesh_, hole, true);
     result.found = true;
     result.hole = hole_to_proto(hole);
     result.distance = nearest->distance;
@@ -254,7 +263,7 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
   sync(document);
   if (sel.mode == geometry::FillSelection::Mode::Ids) {
     // Ids are document vertex ids; unknown ones are an error before anything changes.
-    const auto found = geometry::find_holes(mesh_, {.compute_projectability = false});
+    const auto& found = search();
     std::vector<std::uint32_t> unknown;
     for (const std::uint32_t id : selection.ids().ids()) {
       const std::uint32_t mesh_id =
@@ -274,7 +283,8 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
     }
   }
   const geometry::FillReport report =
-      geometry::fill_holes(mesh_, sel, to_fill_options(options), progress);
+      geometry::fill_holes(mesh_, sel, to_fill_options(options), progress, &search());
+  holes_.reset();  // the mesh changed (or attempts left deleted elements): search again next time
   if (sel.mode == geometry::FillSelection::Mode::Nearest && report.holes.empty()) {
     outcome.status = {StatusCode::FailedPrecondition, "the mesh has no holes"};
     return outcome;

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -62,7 +63,10 @@ Status export_document(const rpc::MeshDocument& document, geometry::MeshFormat f
 class SessionGeometry {
  public:
   //! Forget the cache (after undo, redo or load); the next call rebuilds it.
-  void invalidate() { valid_ = false; }
+  void invalidate() {
+    valid_ = false;
+    holes_.reset();
+  }
 
   //! The holes of the current document, ids and loops in document ids.
   std::vector<v1::Hole> holes(const rpc::MeshDocument& document);
@@ -88,6 +92,9 @@ class SessionGeometry {
 
  private:
   void sync(const rpc::MeshDocument& document);
+  //! The hole search of the current mesh, done once per version (selection then fill is the
+  //! interactive path: the second call reuses the first's search and projectability test).
+  geometry::HoleSearchResult& search();
   v1::Hole hole_to_proto(const geometry::Hole& hole) const;
   std::uint32_t doc_vertex(std::size_t mesh_index) const;
 
@@ -101,6 +108,7 @@ class SessionGeometry {
   std::vector<std::uint32_t> pending_vertex_map_;  // pairs mesh index, doc id
   std::vector<std::uint32_t> pending_face_map_;
   std::uint64_t pending_version_ = 0;
+  std::optional<geometry::HoleSearchResult> holes_;
 };
 
 }  // namespace touchmend::service
