@@ -9,12 +9,13 @@
 
 namespace touchmend::service {
 
-namespace {
-std::int64_t now_ms() {
+std::int64_t unix_now_ms() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(
              std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
+
+namespace {
 bool is_final(int state) {
   return state == v1::SUCCEEDED || state == v1::FAILED || state == v1::CANCELLED;
 }
@@ -140,7 +141,7 @@ Status JobManager::start() {
         r.error_code = static_cast<int>(StatusCode::Aborted);
         r.error_message =
             "the server stopped during each of " + std::to_string(r.attempts) + " attempts";
-        r.finished_ms = now_ms();
+        r.finished_ms = unix_now_ms();
         store_.update_job(r);
       } else {
         r.state = v1::QUEUED;
@@ -222,7 +223,7 @@ Status JobManager::submit(const std::string& principal, const v1::JobSpec& spec,
   entry->row.principal = principal;
   entry->row.state = v1::QUEUED;
   entry->row.spec = spec.SerializeAsString();
-  entry->row.created_ms = now_ms();
+  entry->row.created_ms = unix_now_ms();
   if (Status s = store_.insert_job(entry->row, input); !s.is_ok()) return s;
   jobs_[entry->row.id] = entry;
   queue_.push_back(entry->row.id);
@@ -331,7 +332,7 @@ std::size_t JobManager::expire() {
   {
     std::lock_guard lock(mutex_);
     const std::int64_t cutoff =
-        now_ms() -
+        unix_now_ms() -
         std::chrono::duration_cast<std::chrono::milliseconds>(options_.result_ttl).count();
     for (auto it = jobs_.begin(); it != jobs_.end();) {
       if (is_final(it->second->row.state) && it->second->row.finished_ms < cutoff) {
@@ -367,7 +368,7 @@ void JobManager::finish(const std::shared_ptr<Entry>& e, int state, Status error
     row = e->row;
   }
   row.state = state;
-  row.finished_ms = now_ms();
+  row.finished_ms = unix_now_ms();
   row.error_code = static_cast<int>(error.code);
   row.error_message = error.message;
   if (report) row.report = report->SerializeAsString();

@@ -103,5 +103,7 @@ BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec,
 
 //! A new random id (128 bits, hex) for sessions and jobs.
 std::string random_id();
+//! Milliseconds since the Unix epoch (timestamps stored with sessions and jobs).
+std::int64_t unix_now_ms();
 
 }  // namespace touchmend::service

@@ -10,12 +10,6 @@ namespace touchmend::service {
 
 namespace {
 
-std::int64_t now_ms() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 template <class Message>
 void reply(const CallPtr& call, const Status& status, const Message& message) {
   if (status.is_ok()) {
@@ -52,15 +46,75 @@ void unary(const CallPtr& call, Fn handler) {
   };
 }
 
-//! The first message of a client stream, then the rest: \p on_first validates the header.
+//! A client stream of chunks (UploadMesh, SubmitFillJob): the first chunk carries a header
+//! that \p accept_first checks and that declares the total size; the data is accumulated up
+//! to exactly that size (at most \p limit), and \p complete runs at the end of the stream.
+//! A stream cut off early, too long, or not parsing is answered with INVALID_ARGUMENT.
 template <class Chunk>
-struct ChunkedUpload {
-  std::uint64_t declared = 0;
-  std::size_t limit = 0;
-  std::shared_ptr<std::string> bytes = std::make_shared<std::string>();
-  bool have_header = false;
-  Chunk first;
-};
+void chunked_upload(
+    const CallPtr& call, std::size_t limit,
+    std::function<Status(const Chunk& first, std::uint64_t& declared)> accept_first,
+    std::function<void(const Chunk& first, std::shared_ptr<std::string> bytes)> complete) {
+  struct State {
+    bool have_first = false;
+    Chunk first;
+    std::uint64_t declared = 0;
+    std::shared_ptr<std::string> bytes = std::make_shared<std::string>();
+  };
+  auto state = std::make_shared<State>();
+  call->on_message = [call, state, limit, accept_first](std::string_view payload) {
+    if (call->finished()) return;
+    Chunk chunk;
+    if (!chunk.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {
+      call->finish({StatusCode::InvalidArgument,
+                    "a message is not a valid " + std::string(Chunk::descriptor()->full_name())});
+      return;
+    }
+    if (!state->have_first) {
+      std::uint64_t declared = 0;
+      if (Status s = accept_first(chunk, declared); !s.is_ok()) {
+        call->finish(s);
+        return;
+      }
+      if (declared == 0) {
+        call->finish(
+            {StatusCode::InvalidArgument, "total_bytes must be the size of the mesh file"});
+        return;
+      }
+      if (declared > limit) {
+        call->finish({StatusCode::ResourceExhausted, "upload of " + std::to_string(declared) +
+                                                         " bytes exceeds the limit of " +
+                                                         std::to_string(limit)});
+        return;
+      }
+      state->declared = declared;
+      state->have_first = true;
+      state->first = chunk;
+      state->first.clear_data();
+    }
+    if (state->bytes->size() + chunk.data().size() > state->declared) {
+      call->finish(
+          {StatusCode::InvalidArgument, "the upload is longer than its declared total_bytes"});
+      return;
+    }
+    state->bytes->append(chunk.data());
+  };
+  call->on_half_close = [call, state, complete] {
+    if (call->finished()) return;
+    if (!state->have_first) {
+      call->finish({StatusCode::InvalidArgument, "empty upload"});
+      return;
+    }
+    if (state->bytes->size() != state->declared) {
+      call->finish({StatusCode::InvalidArgument, "upload cut off: received " +
+                                                     std::to_string(state->bytes->size()) + " of " +
+                                                     std::to_string(state->declared) + " bytes"});
+      return;
+    }
+    complete(state->first, state->bytes);
+  };
+  call->on_cancel = [state] { state->bytes->clear(); };
+}
 
 bool finite(const v1::Point3& p) {
   return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z());
@@ -84,6 +138,20 @@ void stream_chunks(const CallPtr& call, std::shared_ptr<const std::string> bytes
 }
 
 }  // namespace
+
+template <class Request, class Work>
+void RepairService::on_session(const CallPtr& call, Work work) {
+  unary<Request>(call, [this, call, work](const Request& req) {
+    SessionPtr session;
+    if (Status s = open_session(call->principal(), req.session_id(), session); !s.is_ok()) {
+      call->finish(s);
+      return;
+    }
+    asio::post(session->strand(), [call, session, req, work] {
+      if (!call->cancelled()) work(req, session);
+    });
+  });
+}
 
 RepairService::RepairService(Store& store, JobManager& jobs, asio::thread_pool& pool,
                              Metrics& metrics, ServiceOptions options)
@@ -217,7 +285,7 @@ void RepairService::create_session(const CallPtr& call) {
       row.id = random_id();
       row.name = req.name().empty() ? "session" : req.name();
       row.owner = call->principal();
-      row.created_ms = now_ms();
+      row.created_ms = unix_now_ms();
       row.request_id = req.request_id();
       if (Status s = store_.insert_session(row); !s.is_ok()) {
         call->finish(s);
@@ -245,14 +313,8 @@ void RepairService::list_sessions(const CallPtr& call) {
 }
 
 void RepairService::open_session_rpc(const CallPtr& call) {
-  unary<v1::SessionRef>(call, [this, call](const v1::SessionRef& req) {
-    SessionPtr session;
-    Status s = open_session(call->principal(), req.session_id(), session);
-    if (!s.is_ok()) {
-      call->finish(s);
-      return;
-    }
-    asio::post(session->strand(), [call, session] { reply(call, {}, session->info()); });
+  on_session<v1::SessionRef>(call, [call](const v1::SessionRef&, const SessionPtr& session) {
+    reply(call, {}, session->info());
   });
 }
 
@@ -317,71 +379,28 @@ void RepairService::load_into(const CallPtr& call, const SessionPtr& session,
 }
 
 void RepairService::upload_mesh(const CallPtr& call) {
-  auto state = std::make_shared<ChunkedUpload<v1::MeshChunk>>();
   auto session = std::make_shared<SessionPtr>();
-  call->on_message = [this, call, state, session](std::string_view payload) {
-    if (call->finished()) return;
-    v1::MeshChunk chunk;
-    if (!chunk.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {
-      call->finish({StatusCode::InvalidArgument, "an upload message is not a valid MeshChunk"});
-      return;
-    }
-    if (!state->have_header) {
-      if (!chunk.has_header()) {
-        call->finish({StatusCode::InvalidArgument, "the first upload chunk must carry the header"});
-        return;
-      }
-      const auto& h = chunk.header();
-      if (Status s = open_session(call->principal(), h.session_id(), *session); !s.is_ok()) {
-        call->finish(s);
-        return;
-      }
-      if (h.total_bytes() == 0) {
-        call->finish({StatusCode::InvalidArgument, "total_bytes must be the size of the file"});
-        return;
-      }
-      if (h.total_bytes() > options_.session.limits.max_upload_bytes) {
-        call->finish({StatusCode::ResourceExhausted,
-                      "upload of " + std::to_string(h.total_bytes()) +
-                          " bytes exceeds the limit of " +
-                          std::to_string(options_.session.limits.max_upload_bytes)});
-        return;
-      }
-      geometry::MeshFormat f;
-      if (!to_geometry_format(h.format(), f)) {
-        call->finish({StatusCode::InvalidArgument, "unknown mesh format (OFF, OBJ, PLY or STL)"});
-        return;
-      }
-      state->declared = h.total_bytes();
-      state->first = chunk;
-      state->have_header = true;
-    } else if (chunk.has_header()) {
-      call->finish({StatusCode::InvalidArgument, "only the first upload chunk may carry a header"});
-      return;
-    }
-    if (state->bytes->size() + chunk.data().size() > state->declared) {
-      call->finish(
-          {StatusCode::InvalidArgument, "the upload is longer than its declared total_bytes"});
-      return;
-    }
-    state->bytes->append(chunk.data());
-  };
-  call->on_half_close = [this, call, state, session] {
-    if (call->finished()) return;
-    if (!state->have_header) {
-      call->finish({StatusCode::InvalidArgument, "empty upload"});
-      return;
-    }
-    if (state->bytes->size() != state->declared) {
-      call->finish({StatusCode::InvalidArgument, "upload cut off: received " +
-                                                     std::to_string(state->bytes->size()) + " of " +
-                                                     std::to_string(state->declared) + " bytes"});
-      return;
-    }
-    const auto& h = state->first.header();
-    load_into(call, *session, state->bytes, h.format(), h.name().empty() ? "upload" : h.name());
-  };
-  call->on_cancel = [state] { state->bytes->clear(); };
+  chunked_upload<v1::MeshChunk>(
+      call, options_.session.limits.max_upload_bytes,
+      [this, call, session](const v1::MeshChunk& first, std::uint64_t& declared) -> Status {
+        if (!first.has_header()) {
+          return {StatusCode::InvalidArgument, "the first upload chunk must carry the header"};
+        }
+        const auto& h = first.header();
+        if (Status s = open_session(call->principal(), h.session_id(), *session); !s.is_ok())
+          return s;
+        geometry::MeshFormat f;
+        if (!to_geometry_format(h.format(), f)) {
+          return {StatusCode::InvalidArgument, "unknown mesh format (OFF, OBJ, PLY or STL)"};
+        }
+        declared = h.total_bytes();
+        return {};
+      },
+      [this, call, session](const v1::MeshChunk& first, std::shared_ptr<std::string> bytes) {
+        const auto& h = first.header();
+        load_into(call, *session, std::move(bytes), h.format(),
+                  h.name().empty() ? "upload" : h.name());
+      });
 }
 
 void RepairService::load_server_mesh(const CallPtr& call) {
@@ -429,107 +448,68 @@ void RepairService::load_server_mesh(const CallPtr& call) {
 }
 
 void RepairService::export_mesh(const CallPtr& call) {
-  unary<v1::ExportMeshRequest>(call, [this, call](const v1::ExportMeshRequest& req) {
-    SessionPtr session;
-    if (Status s = open_session(call->principal(), req.session_id(), session); !s.is_ok()) {
-      call->finish(s);
-      return;
-    }
-    asio::post(session->strand(), [call, session, req] {
-      auto bytes = std::make_shared<std::string>();
-      if (Status s = session->export_mesh(req, *bytes); !s.is_ok()) {
-        call->finish(s);
-        return;
-      }
-      stream_chunks(call, bytes);
-    });
-  });
+  on_session<v1::ExportMeshRequest>(
+      call, [call](const v1::ExportMeshRequest& req, const SessionPtr& session) {
+        auto bytes = std::make_shared<std::string>();
+        if (Status s = session->export_mesh(req, *bytes); !s.is_ok()) {
+          call->finish(s);
+          return;
+        }
+        stream_chunks(call, bytes);
+      });
 }
 
 void RepairService::list_holes(const CallPtr& call) {
-  unary<v1::SessionRef>(call, [this, call](const v1::SessionRef& req) {
-    SessionPtr session;
-    if (Status s = open_session(call->principal(), req.session_id(), session); !s.is_ok()) {
-      call->finish(s);
-      return;
-    }
-    asio::post(session->strand(), [call, session] {
-      v1::ListHolesResponse r;
-      r.set_version(session->version());
-      for (auto& h : session->holes()) *r.add_holes() = std::move(h);
-      reply(call, {}, r);
-    });
+  on_session<v1::SessionRef>(call, [call](const v1::SessionRef&, const SessionPtr& session) {
+    v1::ListHolesResponse r;
+    r.set_version(session->version());
+    for (auto& h : session->holes()) *r.add_holes() = std::move(h);
+    reply(call, {}, r);
   });
 }
 
 void RepairService::find_nearest_hole(const CallPtr& call) {
-  unary<v1::FindNearestHoleRequest>(call, [this, call](const v1::FindNearestHoleRequest& req) {
-    SessionPtr session;
-    Status s = open_session(call->principal(), req.session_id(), session);
-    if (s.is_ok() && !finite(req.point()))
-      s = {StatusCode::InvalidArgument, "the point is not finite"};
-    if (!s.is_ok()) {
-      call->finish(s);
-      return;
-    }
-    asio::post(session->strand(), [call, session, req] {
-      const auto nearest = session->nearest_hole(req.point());
-      if (!nearest.found) {
-        call->finish({StatusCode::NotFound, "the mesh has no holes"});
-        return;
-      }
-      v1::FindNearestHoleResponse r;
-      r.set_version(session->version());
-      *r.mutable_hole() = nearest.hole;
-      r.set_distance(nearest.distance);
-      reply(call, {}, r);
-    });
-  });
+  on_session<v1::FindNearestHoleRequest>(
+      call, [call](const v1::FindNearestHoleRequest& req, const SessionPtr& session) {
+        if (!finite(req.point())) {
+          call->finish({StatusCode::InvalidArgument, "the point is not finite"});
+          return;
+        }
+        const auto nearest = session->nearest_hole(req.point());
+        if (!nearest.found) {
+          call->finish({StatusCode::NotFound, "the mesh has no holes"});
+          return;
+        }
+        v1::FindNearestHoleResponse r;
+        r.set_version(session->version());
+        *r.mutable_hole() = nearest.hole;
+        r.set_distance(nearest.distance);
+        reply(call, {}, r);
+      });
 }
 
 void RepairService::fill_holes(const CallPtr& call) {
-  unary<v1::FillHolesRequest>(call, [this, call](const v1::FillHolesRequest& req) {
-    SessionPtr session;
-    if (Status s = open_session(call->principal(), req.session_id(), session); !s.is_ok()) {
-      call->finish(s);
-      return;
-    }
-    asio::post(session->strand(), [call, session, req] {
-      if (call->cancelled()) return;
-      v1::EditResponse response;
-      Status s = session->fill(req, call->principal(), call.get(), response);
-      reply(call, s, response);
-    });
-  });
+  on_session<v1::FillHolesRequest>(
+      call, [call](const v1::FillHolesRequest& req, const SessionPtr& session) {
+        v1::EditResponse response;
+        Status s = session->fill(req, call->principal(), call.get(), response);
+        reply(call, s, response);
+      });
 }
 
 void RepairService::undo(const CallPtr& call) {
-  unary<v1::SessionRef>(call, [this, call](const v1::SessionRef& req) {
-    SessionPtr session;
-    if (Status s = open_session(call->principal(), req.session_id(), session); !s.is_ok()) {
-      call->finish(s);
-      return;
-    }
-    asio::post(session->strand(), [call, session] {
-      v1::EditResponse response;
-      Status s = session->undo(call->principal(), response);
-      reply(call, s, response);
-    });
+  on_session<v1::SessionRef>(call, [call](const v1::SessionRef&, const SessionPtr& session) {
+    v1::EditResponse response;
+    Status s = session->step_history(Session::History::Undo, call->principal(), response);
+    reply(call, s, response);
   });
 }
 
 void RepairService::redo(const CallPtr& call) {
-  unary<v1::SessionRef>(call, [this, call](const v1::SessionRef& req) {
-    SessionPtr session;
-    if (Status s = open_session(call->principal(), req.session_id(), session); !s.is_ok()) {
-      call->finish(s);
-      return;
-    }
-    asio::post(session->strand(), [call, session] {
-      v1::EditResponse response;
-      Status s = session->redo(call->principal(), response);
-      reply(call, s, response);
-    });
+  on_session<v1::SessionRef>(call, [call](const v1::SessionRef&, const SessionPtr& session) {
+    v1::EditResponse response;
+    Status s = session->step_history(Session::History::Redo, call->principal(), response);
+    reply(call, s, response);
   });
 }
 
@@ -693,56 +673,20 @@ void RepairService::interact(const CallPtr& call) {
 }
 
 void RepairService::submit_fill_job(const CallPtr& call) {
-  auto state = std::make_shared<ChunkedUpload<v1::JobChunk>>();
-  call->on_message = [this, call, state](std::string_view payload) {
-    if (call->finished()) return;
-    v1::JobChunk chunk;
-    if (!chunk.ParseFromArray(payload.data(), static_cast<int>(payload.size()))) {
-      call->finish({StatusCode::InvalidArgument, "a job message is not a valid JobChunk"});
-      return;
-    }
-    if (!state->have_header) {
-      if (!chunk.has_spec()) {
-        call->finish({StatusCode::InvalidArgument, "the first job chunk must carry the spec"});
-        return;
-      }
-      if (chunk.spec().total_bytes() == 0) {
-        call->finish(
-            {StatusCode::InvalidArgument, "total_bytes must be the size of the mesh file"});
-        return;
-      }
-      if (chunk.spec().total_bytes() > options_.session.limits.max_upload_bytes) {
-        call->finish({StatusCode::ResourceExhausted, "the job's mesh exceeds the upload limit"});
-        return;
-      }
-      state->declared = chunk.spec().total_bytes();
-      state->first = chunk;
-      state->have_header = true;
-    }
-    if (state->bytes->size() + chunk.data().size() > state->declared) {
-      call->finish(
-          {StatusCode::InvalidArgument, "the upload is longer than its declared total_bytes"});
-      return;
-    }
-    state->bytes->append(chunk.data());
-  };
-  call->on_half_close = [this, call, state] {
-    if (call->finished()) return;
-    if (!state->have_header) {
-      call->finish({StatusCode::InvalidArgument, "empty job submission"});
-      return;
-    }
-    if (state->bytes->size() != state->declared) {
-      call->finish({StatusCode::InvalidArgument, "upload cut off: received " +
-                                                     std::to_string(state->bytes->size()) + " of " +
-                                                     std::to_string(state->declared) + " bytes"});
-      return;
-    }
-    v1::Job job;
-    Status s = jobs_.submit(call->principal(), state->first.spec(), std::move(*state->bytes), job);
-    reply(call, s, job);
-  };
-  call->on_cancel = [state] { state->bytes->clear(); };
+  chunked_upload<v1::JobChunk>(
+      call, options_.session.limits.max_upload_bytes,
+      [](const v1::JobChunk& first, std::uint64_t& declared) -> Status {
+        if (!first.has_spec()) {
+          return {StatusCode::InvalidArgument, "the first job chunk must carry the spec"};
+        }
+        declared = first.spec().total_bytes();
+        return {};
+      },
+      [this, call](const v1::JobChunk& first, std::shared_ptr<std::string> bytes) {
+        v1::Job job;
+        Status s = jobs_.submit(call->principal(), first.spec(), std::move(*bytes), job);
+        reply(call, s, job);
+      });
 }
 
 void RepairService::get_job(const CallPtr& call) {

@@ -68,6 +68,10 @@ class RepairService final : public CallDispatcher {
   void fetch_job_result(const CallPtr& call);
   void list_jobs(const CallPtr& call);
 
+  //! A unary call on one session: checks access, then runs \p work(request, session) on the
+  //! session's strand (unless the call was cancelled meanwhile).
+  template <class Request, class Work>
+  void on_session(const CallPtr& call, Work work);
   void load_into(const CallPtr& call, const SessionPtr& session, std::shared_ptr<std::string> bytes,
                  v1::MeshFormat format, const std::string& name);
 

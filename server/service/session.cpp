@@ -291,38 +291,28 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
   return {};
 }
 
-Status Session::undo(const std::string& principal, v1::EditResponse& response) {
-  if (undo_.empty()) return {StatusCode::FailedPrecondition, "nothing to undo"};
-  const std::uint64_t target = undo_.back();
+Status Session::step_history(History direction, const std::string& principal,
+                             v1::EditResponse& response) {
+  const bool undoing = direction == History::Undo;
+  std::vector<std::uint64_t>& from = undoing ? undo_ : redo_;
+  std::vector<std::uint64_t>& to = undoing ? redo_ : undo_;
+  if (from.empty())
+    return {StatusCode::FailedPrecondition, undoing ? "nothing to undo" : "nothing to redo"};
+  const std::uint64_t target = from.back();
   auto entry = store_.journal_entry(row_.id, target);
   v1::EditResponse original;
   if (!entry || !original.ParseFromString(entry->response)) {
     return {StatusCode::DataLoss, "journal entry " + std::to_string(target) + " is missing"};
   }
-  *response.mutable_delta() = rpc::invert_delta(original.delta(), document_);
-  response.mutable_delta()->set_description("undo " + std::to_string(target));
+  // Undo applies the inverse of the edit; redo applies the edit again on the current version.
+  *response.mutable_delta() = undoing ? rpc::invert_delta(original.delta(), document_)
+                                      : rpc::rebase_delta(original.delta(), document_.version);
+  response.mutable_delta()->set_description((undoing ? "undo " : "redo ") + std::to_string(target));
   geometry_.invalidate();
-  if (Status s = commit(JournalKind::Undo, target, response, principal, ""); !s.is_ok()) return s;
-  undo_.pop_back();
-  redo_.push_back(target);
-  refresh_summary();
-  return {};
-}
-
-Status Session::redo(const std::string& principal, v1::EditResponse& response) {
-  if (redo_.empty()) return {StatusCode::FailedPrecondition, "nothing to redo"};
-  const std::uint64_t target = redo_.back();
-  auto entry = store_.journal_entry(row_.id, target);
-  v1::EditResponse original;
-  if (!entry || !original.ParseFromString(entry->response)) {
-    return {StatusCode::DataLoss, "journal entry " + std::to_string(target) + " is missing"};
-  }
-  *response.mutable_delta() = rpc::rebase_delta(original.delta(), document_.version);
-  response.mutable_delta()->set_description("redo " + std::to_string(target));
-  geometry_.invalidate();
-  if (Status s = commit(JournalKind::Redo, target, response, principal, ""); !s.is_ok()) return s;
-  redo_.pop_back();
-  undo_.push_back(target);
+  const JournalKind kind = undoing ? JournalKind::Undo : JournalKind::Redo;
+  if (Status s = commit(kind, target, response, principal, ""); !s.is_ok()) return s;
+  from.pop_back();
+  to.push_back(target);
   refresh_summary();
   return {};
 }

@@ -56,8 +56,9 @@ class Session : public std::enable_shared_from_this<Session> {
               v1::LoadMeshResponse& response);
   Status fill(const v1::FillHolesRequest& request, const std::string& principal,
               const ServerCall* call, v1::EditResponse& response);
-  Status undo(const std::string& principal, v1::EditResponse& response);
-  Status redo(const std::string& principal, v1::EditResponse& response);
+  enum class History { Undo, Redo };
+  //! Undoes the last edit (journaled as the inverse delta) or redoes the last undone one.
+  Status step_history(History direction, const std::string& principal, v1::EditResponse& response);
   std::vector<v1::Hole> holes();
   SessionGeometry::Nearest nearest_hole(const v1::Point3& point);
   Status export_mesh(const v1::ExportMeshRequest& request, std::string& bytes);
