@@ -308,9 +308,12 @@ Status Session::step_history(History direction, const std::string& principal,
   *response.mutable_delta() = undoing ? rpc::invert_delta(original.delta(), document_)
                                       : rpc::rebase_delta(original.delta(), document_.version);
   response.mutable_delta()->set_description((undoing ? "undo " : "redo ") + std::to_string(target));
-  geometry_.invalidate();
   const JournalKind kind = undoing ? JournalKind::Undo : JournalKind::Redo;
-  if (Status s = commit(kind, target, response, principal, ""); !s.is_ok()) return s;
+  if (Status s = commit(kind, target, response, principal, ""); !s.is_ok()) {
+    geometry_.invalidate();
+    return s;
+  }
+  geometry_.apply(response.delta());
   from.pop_back();
   to.push_back(target);
   refresh_summary();

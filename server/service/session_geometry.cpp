@@ -5,12 +5,9 @@
 #include "server/geometry/metrics.h"
 
 namespace touchmend::service {
+
 using geometry::FaceHandle;
 using geometry::VertexHandle;
-}  // namespace touchmend::service
-
-namespace touchmend::service {
-
 using rpc::StatusCode;
 
 Status load_document(std::string_view bytes, geometry::MeshFormat format, const MeshLimits& limits,
@@ -153,8 +150,10 @@ void SessionGeometry::sync(const rpc::MeshDocument& document) {
   soup.points.reserve(document.positions.size());
   for (const auto& p : document.positions) soup.points.emplace_back(p[0], p[1], p[2]);
   doc_of_mesh_face_.clear();
+  mesh_of_doc_face_.assign(document.faces.size(), kNoId);
   for (std::size_t f = 0; f < document.faces.size(); ++f) {
     if (!document.face_alive[f]) continue;
+    mesh_of_doc_face_[f] = static_cast<std::uint32_t>(doc_of_mesh_face_.size());
     soup.triangles.push_back(document.faces[f]);
     doc_of_mesh_face_.push_back(static_cast<std::uint32_t>(f));
   }
@@ -168,6 +167,11 @@ void SessionGeometry::sync(const rpc::MeshDocument& document) {
   version_ = document.version;
   valid_ = true;
   holes_.reset();
+  faces_at_rebuild_ = mesh_.n_faces();
+}
+
+void SessionGeometry::bound_growth() {
+  if (valid_ && mesh_.n_faces() > faces_at_rebuild_ + faces_at_rebuild_ / 4 + 1024) invalidate();
 }
 
 geometry::HoleSearchResult& SessionGeometry::search() {
@@ -352,11 +356,79 @@ void SessionGeometry::commit_fill() {
     mesh_of_doc_vertex_[doc_id] = mesh_index;
   }
   for (std::size_t i = 0; i + 1 < pending_face_map_.size(); i += 2) {
-    doc_of_mesh_face_[pending_face_map_[i]] = pending_face_map_[i + 1];
+    const std::uint32_t doc_id = pending_face_map_[i + 1];
+    doc_of_mesh_face_[pending_face_map_[i]] = doc_id;
+    if (mesh_of_doc_face_.size() <= doc_id) mesh_of_doc_face_.resize(doc_id + 1, kNoId);
+    mesh_of_doc_face_[doc_id] = pending_face_map_[i];
   }
   pending_vertex_map_.clear();
   pending_face_map_.clear();
   version_ = pending_version_;
+  bound_growth();
+}
+
+void SessionGeometry::apply(const v1::MeshDelta& delta) {
+  if (!valid_ || version_ != delta.base_version()) {
+    invalidate();
+    return;
+  }
+  holes_.reset();
+  const auto fail = [this] { invalidate(); };
+  for (const std::uint32_t f : delta.removed_faces()) {
+    const std::uint32_t mf = f < mesh_of_doc_face_.size() ? mesh_of_doc_face_[f] : kNoId;
+    if (mf == kNoId || mesh_.status(FaceHandle(static_cast<int>(mf))).deleted()) return fail();
+    // Keep the vertices: a removed vertex stays as an isolated slot, as after a rebuild.
+    mesh_.delete_face(FaceHandle(static_cast<int>(mf)), false);
+    mesh_of_doc_face_[f] = kNoId;
+    doc_of_mesh_face_[mf] = kNoId;
+  }
+  for (const std::uint32_t v : delta.removed_vertices()) {
+    const std::uint32_t mv = v < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[v] : kNoId;
+    if (mv == kNoId || !mesh_.is_isolated(VertexHandle(static_cast<int>(mv)))) return fail();
+  }
+  for (int i = 0; i < delta.added_vertex_ids_size(); ++i) {
+    const std::uint32_t v = delta.added_vertex_ids(i);
+    const geometry::Vec3 p(delta.added_positions(3 * i), delta.added_positions(3 * i + 1),
+                           delta.added_positions(3 * i + 2));
+    std::uint32_t mv = v < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[v] : kNoId;
+    if (mv == kNoId) {
+      mv = static_cast<std::uint32_t>(mesh_.add_vertex(p).idx());
+      if (mesh_of_doc_vertex_.size() <= v) mesh_of_doc_vertex_.resize(v + 1, kNoId);
+      mesh_of_doc_vertex_[v] = mv;
+      doc_of_mesh_vertex_.resize(mesh_.n_vertices(), kNoId);
+      doc_of_mesh_vertex_[mv] = v;
+    } else {
+      const VertexHandle vh(static_cast<int>(mv));
+      if (mesh_.status(vh).deleted() || !mesh_.is_isolated(vh)) return fail();
+      mesh_.set_point(vh, p);
+    }
+  }
+  for (int i = 0; i < delta.moved_vertex_ids_size(); ++i) {
+    const std::uint32_t v = delta.moved_vertex_ids(i);
+    const std::uint32_t mv = v < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[v] : kNoId;
+    if (mv == kNoId) return fail();
+    mesh_.set_point(VertexHandle(static_cast<int>(mv)),
+                    geometry::Vec3(delta.moved_positions(3 * i), delta.moved_positions(3 * i + 1),
+                                   delta.moved_positions(3 * i + 2)));
+  }
+  for (int i = 0; i < delta.added_face_ids_size(); ++i) {
+    std::array<VertexHandle, 3> corners;
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t v = delta.added_faces(3 * i + k);
+      const std::uint32_t mv = v < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[v] : kNoId;
+      if (mv == kNoId) return fail();
+      corners[static_cast<std::size_t>(k)] = VertexHandle(static_cast<int>(mv));
+    }
+    const FaceHandle fh = mesh_.add_face(corners[0], corners[1], corners[2]);
+    if (!fh.is_valid()) return fail();  // OpenMesh could not link it: rebuild from the document
+    const std::uint32_t f = delta.added_face_ids(i);
+    if (mesh_of_doc_face_.size() <= f) mesh_of_doc_face_.resize(f + 1, kNoId);
+    mesh_of_doc_face_[f] = static_cast<std::uint32_t>(fh.idx());
+    doc_of_mesh_face_.resize(mesh_.n_faces(), kNoId);
+    doc_of_mesh_face_[static_cast<std::size_t>(fh.idx())] = f;
+  }
+  version_ = delta.version();
+  bound_growth();
 }
 
 }  // namespace touchmend::service

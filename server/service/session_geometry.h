@@ -89,6 +89,12 @@ class SessionGeometry {
                    const v1::FillOptions& options, const geometry::FillProgress& progress);
   //! Records that the last fill's delta was applied to the document (else invalidate()).
   void commit_fill();
+  //! Brings the cache along with an edit made elsewhere (undo, redo) instead of rebuilding
+  //! it from the document, which is O(mesh size): deleted faces are deleted in the mesh,
+  //! revived or new ones added. Anything unexpected falls back to invalidate().
+  void apply(const v1::MeshDelta& delta);
+  //! Whether the cache currently mirrors a document version (for tests and diagnostics).
+  bool cached() const { return valid_; }
 
  private:
   void sync(const rpc::MeshDocument& document);
@@ -104,11 +110,17 @@ class SessionGeometry {
   std::vector<std::uint32_t> doc_of_mesh_vertex_;
   std::vector<std::uint32_t> mesh_of_doc_vertex_;
   std::vector<std::uint32_t> doc_of_mesh_face_;
+  std::vector<std::uint32_t> mesh_of_doc_face_;
   // The last fill, pending commit.
   std::vector<std::uint32_t> pending_vertex_map_;  // pairs mesh index, doc id
   std::vector<std::uint32_t> pending_face_map_;
   std::uint64_t pending_version_ = 0;
   std::optional<geometry::HoleSearchResult> holes_;
+  //! Face handles at the last rebuild: undo, redo and failed fill attempts leave deleted
+  //! elements behind (never garbage-collected in place, DESIGN.md), so once the mesh has
+  //! grown by a quarter the cache is rebuilt (amortised O(1) per edit).
+  std::size_t faces_at_rebuild_ = 0;
+  void bound_growth();
 };
 
 }  // namespace touchmend::service
