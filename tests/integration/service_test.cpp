@@ -617,8 +617,10 @@ TEST(Service, TlsClientsConnectAndPlainClientsAreRefused) {
 
 TEST(Service, ASlowSubscriberLosesEventsNotTheServersMemory) {
   TempDir dir;
+  // The raw subscriber below never answers PINGs: a long keepalive keeps it connected.
   ServerProcess server(dir.path(), {"--queue-soft-kb", "64", "--queue-hard-kb", "65536",
-                                    "--socket-send-buffer-kb", "16"});
+                                    "--socket-send-buffer-kb", "16", "--keepalive-timeout-ms",
+                                    "600000"});
   ASSERT_TRUE(server.start()) << server.log();
   auto channel = server.connect();
   ASSERT_TRUE(channel);
