@@ -81,6 +81,7 @@ class Channel : public std::enable_shared_from_this<Channel> {
   void close();
   bool is_open() const;
   const std::string& principal() const { return principal_; }
+  const ChannelOptions& options() const { return options_; }
 
   //! Opens a call for \p method ("/touchmend.v1.Repair/X" or just "X"). \p first is sent in
   //! the CALL frame. timeout 0 = no deadline.

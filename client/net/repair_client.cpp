@@ -1,6 +1,8 @@
 #include "client/net/repair_client.h"
 
 #include <future>
+#include <random>
+#include <thread>
 
 namespace touchmend::net {
 
@@ -19,8 +21,23 @@ v1::JobRef job_ref(const std::string& id) {
 }
 }  // namespace
 
+std::shared_ptr<Channel> RepairClient::channel() const {
+  std::lock_guard lock(mutex_);
+  return channel_;
+}
+
+Status RepairClient::reconnect() {
+  const ChannelOptions options = channel()->options();
+  Status status;
+  auto fresh = Channel::connect(options, status);
+  if (!fresh) return status;
+  std::lock_guard lock(mutex_);
+  channel_ = std::move(fresh);
+  return {};
+}
+
 Status RepairClient::health(v1::HealthResponse& out) {
-  return channel_->unary("Health", v1::HealthRequest(), out);
+  return channel()->unary("Health", v1::HealthRequest(), out);
 }
 
 Status RepairClient::create_session(const std::string& name, v1::SessionInfo& out,
@@ -28,15 +45,15 @@ Status RepairClient::create_session(const std::string& name, v1::SessionInfo& ou
   v1::CreateSessionRequest req;
   req.set_name(name);
   req.set_request_id(request_id);
-  return channel_->unary("CreateSession", req, out);
+  return channel()->unary("CreateSession", req, out);
 }
 
 Status RepairClient::list_sessions(v1::ListSessionsResponse& out) {
-  return channel_->unary("ListSessions", v1::ListSessionsRequest(), out);
+  return channel()->unary("ListSessions", v1::ListSessionsRequest(), out);
 }
 
 Status RepairClient::open_session(const std::string& session_id, v1::SessionInfo& out) {
-  return channel_->unary("OpenSession", ref(session_id), out);
+  return channel()->unary("OpenSession", ref(session_id), out);
 }
 
 Status RepairClient::share_session(const std::string& session_id, const std::string& principal,
@@ -45,12 +62,12 @@ Status RepairClient::share_session(const std::string& session_id, const std::str
   req.set_session_id(session_id);
   req.set_principal(principal);
   req.set_revoke(revoke);
-  return channel_->unary("ShareSession", req, out);
+  return channel()->unary("ShareSession", req, out);
 }
 
 Status RepairClient::close_session(const std::string& session_id) {
   v1::CloseSessionResponse out;
-  return channel_->unary("CloseSession", ref(session_id), out);
+  return channel()->unary("CloseSession", ref(session_id), out);
 }
 
 template <class Chunk>
@@ -62,7 +79,7 @@ Status RepairClient::upload(const std::string& method, std::vector<Chunk> chunks
   };
   auto result = std::make_shared<Result>();
   auto future = result->status.get_future();
-  auto call = channel_->start_call(
+  auto call = channel()->start_call(
       method, std::nullopt, false, std::chrono::milliseconds(0),
       [result](std::string payload) { result->payload = std::move(payload); },
       [result](Status s) { result->status.set_value(std::move(s)); });
@@ -100,7 +117,7 @@ Status RepairClient::load_server_mesh(const std::string& session_id, const std::
   v1::LoadServerMeshRequest req;
   req.set_session_id(session_id);
   req.set_path(path);
-  return channel_->unary("LoadServerMesh", req, out);
+  return channel()->unary("LoadServerMesh", req, out);
 }
 
 Status RepairClient::download(const std::string& method,
@@ -108,7 +125,7 @@ Status RepairClient::download(const std::string& method,
   auto result = std::make_shared<std::promise<Status>>();
   auto data = std::make_shared<std::string>();
   auto future = result->get_future();
-  channel_->start_call(
+  channel()->start_call(
       method, request.SerializeAsString(), true, std::chrono::milliseconds(0),
       [data](std::string payload) {
         v1::MeshChunk chunk;
@@ -139,7 +156,7 @@ Status RepairClient::download_document(const std::string& session_id, rpc::MeshD
 }
 
 Status RepairClient::list_holes(const std::string& session_id, v1::ListHolesResponse& out) {
-  return channel_->unary("ListHoles", ref(session_id), out);
+  return channel()->unary("ListHoles", ref(session_id), out);
 }
 
 Status RepairClient::find_nearest_hole(const std::string& session_id, const v1::Point3& point,
@@ -147,27 +164,27 @@ Status RepairClient::find_nearest_hole(const std::string& session_id, const v1::
   v1::FindNearestHoleRequest req;
   req.set_session_id(session_id);
   *req.mutable_point() = point;
-  return channel_->unary("FindNearestHole", req, out);
+  return channel()->unary("FindNearestHole", req, out);
 }
 
 Status RepairClient::fill_holes(const v1::FillHolesRequest& request, v1::EditResponse& out,
                                 std::chrono::milliseconds timeout) {
-  return channel_->unary("FillHoles", request, out, timeout);
+  return channel()->unary("FillHoles", request, out, timeout);
 }
 
 Status RepairClient::undo(const std::string& session_id, v1::EditResponse& out) {
-  return channel_->unary("Undo", ref(session_id), out);
+  return channel()->unary("Undo", ref(session_id), out);
 }
 
 Status RepairClient::redo(const std::string& session_id, v1::EditResponse& out) {
-  return channel_->unary("Redo", ref(session_id), out);
+  return channel()->unary("Redo", ref(session_id), out);
 }
 
 std::unique_ptr<Stream> RepairClient::server_stream(const std::string& method,
                                                     const google::protobuf::MessageLite& request) {
   auto stream = std::make_unique<Stream>();
   auto queue = stream->queue_;
-  stream->call_ = channel_->start_call(
+  stream->call_ = channel()->start_call(
       method, request.SerializeAsString(), true, std::chrono::milliseconds(0),
       [queue](std::string payload) { queue->push(std::move(payload)); },
       [queue](Status s) { queue->finish(std::move(s)); });
@@ -185,7 +202,7 @@ std::unique_ptr<Stream> RepairClient::subscribe(const std::string& session_id,
 std::unique_ptr<Stream> RepairClient::interact() {
   auto stream = std::make_unique<Stream>();
   auto queue = stream->queue_;
-  stream->call_ = channel_->start_call(
+  stream->call_ = channel()->start_call(
       "Interact", std::nullopt, false, std::chrono::milliseconds(0),
       [queue](std::string payload) { queue->push(std::move(payload)); },
       [queue](Status s) { queue->finish(std::move(s)); });
@@ -206,7 +223,7 @@ Status RepairClient::submit_job(v1::JobSpec spec, const std::string& bytes, v1::
 }
 
 Status RepairClient::get_job(const std::string& job_id, v1::Job& out) {
-  return channel_->unary("GetJob", job_ref(job_id), out);
+  return channel()->unary("GetJob", job_ref(job_id), out);
 }
 
 std::unique_ptr<Stream> RepairClient::watch_job(const std::string& job_id) {
@@ -214,7 +231,7 @@ std::unique_ptr<Stream> RepairClient::watch_job(const std::string& job_id) {
 }
 
 Status RepairClient::cancel_job(const std::string& job_id, v1::Job& out) {
-  return channel_->unary("CancelJob", job_ref(job_id), out);
+  return channel()->unary("CancelJob", job_ref(job_id), out);
 }
 
 Status RepairClient::fetch_job_result(const std::string& job_id, std::string& bytes) {
@@ -222,7 +239,7 @@ Status RepairClient::fetch_job_result(const std::string& job_id, std::string& by
 }
 
 Status RepairClient::list_jobs(v1::ListJobsResponse& out) {
-  return channel_->unary("ListJobs", v1::ListJobsRequest(), out);
+  return channel()->unary("ListJobs", v1::ListJobsRequest(), out);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -246,8 +263,32 @@ Status SessionReplica::resync() {
   return {};
 }
 
+Status SessionReplica::recover(std::chrono::steady_clock::time_point deadline) {
+  static thread_local std::mt19937 jitter(std::random_device{}());
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (client_.reconnect().is_ok()) {
+      ++reconnects_;
+      backoff_ = std::chrono::milliseconds(200);
+      // Resume: the server replays the journal after our version, or sends a resync notice.
+      stream_ = client_.subscribe(session_id_, document_.version);
+      return {};
+    }
+    std::uniform_real_distribution<double> spread(0.8, 1.2);
+    auto wait =
+        std::chrono::milliseconds(static_cast<long>(double(backoff_.count()) * spread(jitter)));
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    std::this_thread::sleep_for(std::min(wait, std::max(left, std::chrono::milliseconds(0))));
+    backoff_ =
+        std::min(std::chrono::milliseconds(10'000),
+                 std::chrono::milliseconds(static_cast<long>(double(backoff_.count()) * 1.6)));
+  }
+  return {StatusCode::Unavailable, "the server is unreachable"};
+}
+
 Status SessionReplica::poll(std::chrono::milliseconds timeout) {
   if (!stream_) return {StatusCode::FailedPrecondition, "start() first"};
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
   v1::SessionEvent event;
   auto wait = timeout;
   while (stream_->read(event, wait)) {
@@ -282,7 +323,9 @@ Status SessionReplica::poll(std::chrono::milliseconds timeout) {
   }
   if (stream_->finished()) {
     Status s = stream_->status();
-    return s.is_ok() ? Status{StatusCode::NotFound, "the session was closed"} : s;
+    if (s.is_ok()) return {StatusCode::NotFound, "the session was closed"};
+    if (s.code == StatusCode::Unavailable) return recover(deadline);  // connection lost
+    return s;
   }
   return {};
 }

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -45,7 +46,11 @@ class Stream {
 class RepairClient {
  public:
   explicit RepairClient(std::shared_ptr<Channel> channel) : channel_(std::move(channel)) {}
-  Channel& channel() { return *channel_; }
+  //! The current channel (replaced by reconnect()).
+  std::shared_ptr<Channel> channel() const;
+  //! Opens a new connection with the same options (after the server went away). Calls in
+  //! flight on the old one have already failed with UNAVAILABLE.
+  Status reconnect();
 
   Status health(v1::HealthResponse& out);
   Status create_session(const std::string& name, v1::SessionInfo& out,
@@ -94,6 +99,7 @@ class RepairClient {
   Status upload(const std::string& method, std::vector<Chunk> chunks,
                 google::protobuf::MessageLite& out);
 
+  mutable std::mutex mutex_;
   std::shared_ptr<Channel> channel_;
 };
 
@@ -107,6 +113,10 @@ class SessionReplica {
   Status start();
   //! Applies the events that have arrived; waits up to \p timeout for the first one.
   Status poll(std::chrono::milliseconds timeout);
+  //! When the connection drops, poll() reconnects with backoff (200 ms, x1.6, at most 10 s
+  //! between attempts, ±20% jitter: SERVICE.md's interactive schedule) and resubscribes from
+  //! the replica's version, so the journal replays what it missed. How many times it did:
+  std::size_t reconnects() const { return reconnects_; }
   //! Polls until the replica reaches \p version (or the timeout passes).
   Status wait_for_version(std::uint64_t version, std::chrono::milliseconds timeout);
   const rpc::MeshDocument& document() const { return document_; }
@@ -118,12 +128,16 @@ class SessionReplica {
 
  private:
   Status resync();
+  //! Reconnects and resubscribes after \p version; false when \p deadline passes first.
+  Status recover(std::chrono::steady_clock::time_point deadline);
   RepairClient& client_;
   std::string session_id_;
   rpc::MeshDocument document_;
   std::unique_ptr<Stream> stream_;
   std::size_t deltas_applied_ = 0;
   std::size_t resyncs_ = 0;
+  std::size_t reconnects_ = 0;
+  std::chrono::milliseconds backoff_{200};
 };
 
 }  // namespace touchmend::net

@@ -34,9 +34,11 @@ bool ServerProcess::start() {
   std::filesystem::create_directories(data_dir_);
   std::filesystem::remove(port_file);
   log_file_ = data_dir_ / "server.log";
+  // A restart listens on the same port, so clients can reconnect to the address they know.
+  const std::string listen = "127.0.0.1:" + std::to_string(port_);
   std::vector<std::string> argv = {TOUCHMEND_SERVER_PATH,
                                    "--listen",
-                                   "127.0.0.1:0",
+                                   listen,
                                    "--data-dir",
                                    (data_dir_ / "store").string(),
                                    "--port-file",
