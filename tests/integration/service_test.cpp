@@ -187,6 +187,45 @@ TEST(Service, TwoClientsOnOneSessionSeeEachOthersEditsAndUndoRedo) {
   EXPECT_EQ(parsed.soup.triangles.size(), expected.alive_faces());
 }
 
+TEST(Service, ALongFillDoesNotBlockOtherSessions) {
+  TempDir dir;
+  ServerProcess server(dir.path(), {"--workers", "2"});
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient client(channel);
+  v1::SessionInfo big;
+  ASSERT_TRUE(client.create_session("big", big).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(client
+                  .upload_mesh(big.session_id(),
+                               read_binary_file(shared_data() / "meshes/stanford-bunny.obj"),
+                               v1::OBJ, "bunny.obj", loaded)
+                  .is_ok());
+  const std::string small = make_session(client, "small");
+
+  // Fill every hole of the bunny with fairing (long), and meanwhile work on the other session
+  // on the same connection: its calls are answered while the long fill is still running.
+  v1::FillHolesRequest all;
+  all.set_session_id(big.session_id());
+  all.mutable_selection()->set_all(true);
+  all.mutable_options()->set_shape(v1::PATCH_SHAPE_FAIR);
+  auto long_fill = std::async(std::launch::async, [&] {
+    v1::EditResponse edit;
+    return client.fill_holes(all, edit);
+  });
+  std::this_thread::sleep_for(20ms);
+  int answered_meanwhile = 0;
+  while (long_fill.wait_for(0ms) != std::future_status::ready && answered_meanwhile < 3) {
+    v1::ListHolesResponse holes;
+    ASSERT_TRUE(client.list_holes(small, holes).is_ok());
+    EXPECT_EQ(holes.holes_size(), 3);
+    if (long_fill.wait_for(0ms) != std::future_status::ready) ++answered_meanwhile;
+  }
+  EXPECT_GE(answered_meanwhile, 1);
+  EXPECT_TRUE(long_fill.get().is_ok());
+}
+
 TEST(Service, FillJobLifecycleMatchesTheInProcessFill) {
   TempDir dir;
   ServerProcess server(dir.path(), {"--job-workers", "1"});
