@@ -420,16 +420,24 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     for (const FaceHandle f : faces)
       for (const HalfedgeHandle h : mesh.fh_range(f))
         longest_edge = std::max(longest_edge, mesh.calc_edge_length(h));
-    if (options.check_intersections &&
-        !find_face_intersections(mesh, faces, 1, longest_edge).empty()) {
+    // A simple hole's patch that projects injectively onto the hole's reference plane cannot
+    // intersect itself (projects_injectively), so only its contacts with the rest of the mesh
+    // need the triangle tests; otherwise every pair is tested.
+    const auto patch_intersects = [&] {
+      if (hole.is_simple &&
+          projects_injectively(mesh, faces,
+                               ReferenceFrame::from_normal(hole.reference_normal, hole.centroid)))
+        return !find_intersections_with_rest(mesh, faces, 1, longest_edge).empty();
+      return !find_face_intersections(mesh, faces, 1, longest_edge).empty();
+    };
+    if (options.check_intersections && patch_intersects()) {
       if (attempt.shape == PatchShape::Fair) {
         for (std::size_t i = 0; i < vertices.size(); ++i)
           mesh.set_point(vertices[i], flat_positions[i]);
         attempt.shape = PatchShape::Flat;
         attempt.warnings.push_back("the faired patch intersected the mesh; kept it flat");
       }
-      if (attempt.shape == PatchShape::Flat &&
-          !find_face_intersections(mesh, faces, 1, longest_edge).empty()) {
+      if (attempt.shape == PatchShape::Flat && patch_intersects()) {
         remove_patch(mesh, faces, vertices);
         failures.push_back(
             fmt::format("{}: the new faces would intersect existing faces", to_string(method)));

@@ -6,6 +6,7 @@
 
 #include "server/geometry/bvh.h"
 #include "server/geometry/intersection.h"
+#include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
 namespace {
@@ -49,9 +50,13 @@ std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Box3& box, double l
   return out;
 }
 
-std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
-    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
-    double longest_edge) {
+namespace {
+
+std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh,
+                                                                std::span<const FaceHandle> faces,
+                                                                std::size_t stop_after,
+                                                                double longest_edge,
+                                                                bool test_within) {
   std::vector<std::pair<FaceHandle, FaceHandle>> out;
   if (faces.empty()) return out;
   std::vector<char> chosen(mesh.n_faces(), 0);
@@ -70,7 +75,10 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
   const std::vector<FaceHandle> candidates = faces_in_box(mesh, region, longest_edge);
   std::vector<TrianglePoints> triangles;
   std::vector<std::array<int, 3>> candidate_ids;
+  std::vector<FaceHandle> kept;
   for (const FaceHandle f : candidates) {
+    if (!test_within && chosen[static_cast<std::size_t>(f.idx())]) continue;
+    kept.push_back(f);
     TrianglePoints t;
     std::array<int, 3> ids;
     face_data(mesh, f, t, ids);
@@ -85,7 +93,7 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
     bool stop = false;
     bvh.query_box(triangle_box(t), [&](std::uint32_t c) {
       if (stop) return;
-      const FaceHandle g = candidates[c];
+      const FaceHandle g = kept[c];
       if (g == f) return;
       if (chosen[static_cast<std::size_t>(g.idx())] && g.idx() < f.idx()) return;  // test once
       if (triangles_intersect(t, ids, triangles[c], candidate_ids[c])) {
@@ -96,6 +104,51 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
     if (stop) break;
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
+    double longest_edge) {
+  return intersections_of(mesh, faces, stop_after, longest_edge, true);
+}
+
+std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
+    double longest_edge) {
+  return intersections_of(mesh, faces, stop_after, longest_edge, false);
+}
+
+bool projects_injectively(const Mesh& mesh, std::span<const FaceHandle> faces,
+                          const ReferenceFrame& frame) {
+  // Degree argument: when the patch is a disk whose boundary projects onto a simple polygon,
+  // the number of patch triangles covering a generic point of the plane, each counted with
+  // the sign of its projected orientation, is the boundary's winding number there (0 or 1).
+  // With every triangle of one strict sign no point is covered twice, so the patch is the
+  // graph of a function over the polygon and no two of its triangles can meet in 3D beyond
+  // their shared edges and vertices.
+  double scale = 0;
+  std::vector<std::array<Point2, 3>> projected;
+  projected.reserve(faces.size());
+  for (const FaceHandle f : faces) {
+    std::array<Point2, 3> t;
+    int k = 0;
+    for (const VertexHandle v : mesh.fv_range(f))
+      t[static_cast<std::size_t>(k++)] = frame.project(mesh.point(v));
+    for (const Point2& p : t) scale = std::max({scale, std::abs(p.x()), std::abs(p.y())});
+    projected.push_back(t);
+  }
+  const double min_area = 1e-12 * scale * scale;
+  int sign = 0;
+  for (const auto& t : projected) {
+    const double a = orient2d(t[0], t[1], t[2]);
+    if (std::abs(a) <= min_area || !std::isfinite(a)) return false;
+    const int s = a > 0 ? 1 : -1;
+    if (sign == 0) sign = s;
+    if (s != sign) return false;
+  }
+  return true;
 }
 
 std::vector<std::pair<FaceHandle, FaceHandle>> find_self_intersections(const Mesh& mesh,

@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "server/geometry/mesh.h"
+#include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
 
@@ -30,6 +31,18 @@ std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Eigen::AlignedBox3d
 std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after = 0,
     double longest_edge = 0);
+
+//! Like find_face_intersections, but two faces that are both in \p faces are never tested
+//! against each other: for a patch already known to be embedded (projects_injectively).
+std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after = 0,
+    double longest_edge = 0);
+
+//! True if every face of \p faces projects onto the plane of \p frame with the same strict
+//! orientation. For a patch that is a disk whose boundary projects onto a simple polygon
+//! (a simple hole in its reference frame) this proves the patch has no self-intersection.
+bool projects_injectively(const Mesh& mesh, std::span<const FaceHandle> faces,
+                          const ReferenceFrame& frame);
 
 //! Every intersecting pair of faces of the whole mesh.
 std::vector<std::pair<FaceHandle, FaceHandle>> find_self_intersections(const Mesh& mesh,

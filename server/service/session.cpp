@@ -38,6 +38,32 @@ void Session::set_member(const std::string& principal, bool present) {
   if (!present && it != row_.members.end()) row_.members.erase(it);
 }
 
+void Session::reset_history_extents() {
+  base_extent_ = {static_cast<std::uint32_t>(document_.positions.size()),
+                  static_cast<std::uint32_t>(document_.faces.size())};
+  undo_extents_.clear();
+}
+
+void Session::push_undo(std::uint64_t version, const v1::MeshDelta& delta) {
+  SlotExtent extent = current_extent();
+  const auto cover = [](std::uint32_t& bound, std::uint32_t id) {
+    bound = std::max(bound, id + 1);
+  };
+  for (const std::uint32_t v : delta.added_vertex_ids()) cover(extent.vertices, v);
+  for (const std::uint32_t v : delta.removed_vertices()) cover(extent.vertices, v);
+  for (const std::uint32_t v : delta.moved_vertex_ids()) cover(extent.vertices, v);
+  for (const std::uint32_t f : delta.added_face_ids()) cover(extent.faces, f);
+  for (const std::uint32_t f : delta.removed_faces()) cover(extent.faces, f);
+  undo_.push_back(version);
+  undo_extents_.push_back(extent);
+}
+
+void Session::pop_undo() {
+  if (undo_.empty()) return;
+  undo_.pop_back();
+  undo_extents_.pop_back();
+}
+
 Status Session::recover() {
   if (auto snap = store_.latest_snapshot(row_.id)) {
     v1::MeshDocument proto;
@@ -53,6 +79,10 @@ Status Session::recover() {
     redo_ = snap->redo;
     mesh_name_ = snap->mesh_name;
   }
+  // The snapshot does not record the history's slot extents: take the whole document for each
+  // (conservative: no slot of the restored history is ever reused).
+  reset_history_extents();
+  undo_extents_.assign(undo_.size(), base_extent_);
   for (;;) {
     auto rows = store_.journal_after(row_.id, document_.version, 1000);
     if (rows.empty()) break;
@@ -72,16 +102,16 @@ Status Session::recover() {
       }
       switch (row.kind) {
         case JournalKind::Edit:
-          undo_.push_back(row.version);
+          push_undo(row.version, response.delta());
           redo_.clear();
           break;
         case JournalKind::Undo:
-          if (!undo_.empty()) undo_.pop_back();
+          pop_undo();
           redo_.push_back(row.target);
           break;
         case JournalKind::Redo:
           if (!redo_.empty()) redo_.pop_back();
-          undo_.push_back(row.target);
+          push_undo(row.target, response.delta());
           break;
         default:
           break;
@@ -163,8 +193,11 @@ Status Session::load(LoadedMesh mesh, const std::string& mesh_name, const std::s
   mesh_name_ = mesh_name;
   auto previous_undo = std::move(undo_);
   auto previous_redo = std::move(redo_);
+  const SlotExtent previous_base = base_extent_;
+  auto previous_extents = std::move(undo_extents_);
   undo_.clear();
   redo_.clear();
+  reset_history_extents();
   // A load is journaled with a snapshot of the new mesh in one transaction.
   JournalRow row;
   row.session_id = row_.id;
@@ -186,6 +219,8 @@ Status Session::load(LoadedMesh mesh, const std::string& mesh_name, const std::s
     mesh_name_ = previous_name;
     undo_ = std::move(previous_undo);
     redo_ = std::move(previous_redo);
+    base_extent_ = previous_base;
+    undo_extents_ = std::move(previous_extents);
     return s;
   }
   metrics_.journal_commit.observe(
@@ -244,7 +279,15 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
   v1::SessionEvent event;
   *event.mutable_delta() = delta;
   broadcast(event);
-  if (++since_snapshot_ >= options_.snapshot_every) snapshot();
+  // The snapshot runs as the strand's next task, after this edit has been answered: it is
+  // not part of any edit's latency (only the session's next call may wait for it).
+  if (++since_snapshot_ >= options_.snapshot_every && !snapshot_queued_) {
+    snapshot_queued_ = true;
+    asio::post(strand_, [self = shared_from_this()] {
+      self->snapshot_queued_ = false;
+      self->snapshot();
+    });
+  }
   return {};
 }
 
@@ -260,7 +303,8 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
     return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
   SessionGeometry::FillOutcome outcome = geometry_.fill(
       document_, request.selection(), request.options(),
-      [call](std::size_t, std::size_t) { return call == nullptr || !call->cancelled(); });
+      [call](std::size_t, std::size_t) { return call == nullptr || !call->cancelled(); },
+      current_extent());
   if (!outcome.status.is_ok()) return outcome.status;
   if (call != nullptr && call->cancelled()) {
     geometry_.invalidate();
@@ -285,7 +329,7 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
     return s;
   }
   geometry_.commit_fill();
-  undo_.push_back(document_.version);
+  push_undo(document_.version, response.delta());
   redo_.clear();
   refresh_summary();
   return {};
@@ -294,8 +338,7 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
 Status Session::step_history(History direction, const std::string& principal,
                              v1::EditResponse& response) {
   const bool undoing = direction == History::Undo;
-  std::vector<std::uint64_t>& from = undoing ? undo_ : redo_;
-  std::vector<std::uint64_t>& to = undoing ? redo_ : undo_;
+  const std::vector<std::uint64_t>& from = undoing ? undo_ : redo_;
   if (from.empty())
     return {StatusCode::FailedPrecondition, undoing ? "nothing to undo" : "nothing to redo"};
   const std::uint64_t target = from.back();
@@ -314,8 +357,13 @@ Status Session::step_history(History direction, const std::string& principal,
     return s;
   }
   geometry_.apply(response.delta());
-  from.pop_back();
-  to.push_back(target);
+  if (undoing) {
+    pop_undo();
+    redo_.push_back(target);
+  } else {
+    redo_.pop_back();
+    push_undo(target, response.delta());
+  }
   refresh_summary();
   return {};
 }

@@ -52,6 +52,7 @@ class Session : public std::enable_shared_from_this<Session> {
   // ---- on strand() ----
   Status recover();
   v1::SessionInfo info() const;
+  const rpc::MeshDocument& document() const { return document_; }
   Status load(LoadedMesh mesh, const std::string& mesh_name, const std::string& principal,
               v1::LoadMeshResponse& response);
   Status fill(const v1::FillHolesRequest& request, const std::string& principal,
@@ -87,8 +88,22 @@ class Session : public std::enable_shared_from_this<Session> {
   SessionGeometry geometry_;
   std::vector<std::uint64_t> undo_;  // versions of Edit entries that can be undone
   std::vector<std::uint64_t> redo_;
+  //! Slot extents of the applied history. Edits allocate document slots at the end, and the
+  //! history is linear, so every slot an applied edit (or the loaded mesh) created or removed
+  //! lies below the extent after it; the dead slots above the current extent belong only to
+  //! undone edits, and a new edit (which drops the redo stack) reuses them instead of growing
+  //! the document on every fill/undo cycle. undo_extents_[i] goes with undo_[i].
+  SlotExtent base_extent_;
+  std::vector<SlotExtent> undo_extents_;
+  SlotExtent current_extent() const {
+    return undo_extents_.empty() ? base_extent_ : undo_extents_.back();
+  }
+  void push_undo(std::uint64_t version, const v1::MeshDelta& delta);
+  void pop_undo();
+  void reset_history_extents();
   std::string mesh_name_;
   std::size_t since_snapshot_ = 0;
+  bool snapshot_queued_ = false;  //!< a snapshot task is posted on the strand
   std::atomic<std::uint64_t> version_{0};
   std::map<std::pair<std::uint64_t, std::uint32_t>, CallPtr> subscribers_;
   mutable std::mutex members_mutex_;

@@ -168,10 +168,54 @@ void SessionGeometry::sync(const rpc::MeshDocument& document) {
   valid_ = true;
   holes_.reset();
   faces_at_rebuild_ = mesh_.n_faces();
+  vertices_at_rebuild_ = mesh_.n_vertices();
 }
 
 void SessionGeometry::bound_growth() {
-  if (valid_ && mesh_.n_faces() > faces_at_rebuild_ + faces_at_rebuild_ / 4 + 1024) invalidate();
+  // Undo deletes faces in place and reused slots retire their old vertices; OpenMesh only
+  // marks them. Once the arrays have grown by a quarter, garbage-collect in place: linear, and
+  // far cheaper than rebuilding the mesh from the document. The document <-> mesh maps are
+  // carried through by OpenMesh's handle tracking.
+  if (!valid_ || (mesh_.n_faces() <= faces_at_rebuild_ + faces_at_rebuild_ / 4 + 1024 &&
+                  mesh_.n_vertices() <= vertices_at_rebuild_ + vertices_at_rebuild_ / 4 + 1024))
+    return;
+  std::vector<VertexHandle> vertices;
+  std::vector<std::uint32_t> vertex_docs;
+  for (std::size_t v = 0; v < mesh_of_doc_vertex_.size(); ++v) {
+    if (mesh_of_doc_vertex_[v] == kNoId) continue;
+    vertices.emplace_back(static_cast<int>(mesh_of_doc_vertex_[v]));
+    vertex_docs.push_back(static_cast<std::uint32_t>(v));
+  }
+  std::vector<FaceHandle> faces;
+  std::vector<std::uint32_t> face_docs;
+  for (std::size_t f = 0; f < mesh_of_doc_face_.size(); ++f) {
+    if (mesh_of_doc_face_[f] == kNoId) continue;
+    faces.emplace_back(static_cast<int>(mesh_of_doc_face_[f]));
+    face_docs.push_back(static_cast<std::uint32_t>(f));
+  }
+  std::vector<VertexHandle*> vertex_pointers;
+  vertex_pointers.reserve(vertices.size());
+  for (VertexHandle& h : vertices) vertex_pointers.push_back(&h);
+  std::vector<FaceHandle*> face_pointers;
+  face_pointers.reserve(faces.size());
+  for (FaceHandle& h : faces) face_pointers.push_back(&h);
+  std::vector<geometry::Mesh::HalfedgeHandle*> no_halfedges;
+  mesh_.garbage_collection(vertex_pointers, no_halfedges, face_pointers, true, true, true);
+  holes_.reset();  // halfedge handles moved
+  doc_of_mesh_vertex_.assign(mesh_.n_vertices(), kNoId);
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    if (!vertices[i].is_valid()) return invalidate();  // a tracked vertex was deleted: rebuild
+    mesh_of_doc_vertex_[vertex_docs[i]] = static_cast<std::uint32_t>(vertices[i].idx());
+    doc_of_mesh_vertex_[static_cast<std::size_t>(vertices[i].idx())] = vertex_docs[i];
+  }
+  doc_of_mesh_face_.assign(mesh_.n_faces(), kNoId);
+  for (std::size_t i = 0; i < faces.size(); ++i) {
+    if (!faces[i].is_valid()) return invalidate();
+    mesh_of_doc_face_[face_docs[i]] = static_cast<std::uint32_t>(faces[i].idx());
+    doc_of_mesh_face_[static_cast<std::size_t>(faces[i].idx())] = face_docs[i];
+  }
+  faces_at_rebuild_ = mesh_.n_faces();
+  vertices_at_rebuild_ = mesh_.n_vertices();
 }
 
 geometry::HoleSearchResult& SessionGeometry::search() {
@@ -231,7 +275,8 @@ SessionGeometry::Nearest SessionGeometry::nearest_hole(const rpc::MeshDocument& 
 SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& document,
                                                    const v1::HoleSelection& selection,
                                                    const v1::FillOptions& options,
-                                                   const geometry::FillProgress& progress) {
+                                                   const geometry::FillProgress& progress,
+                                                   SlotExtent first_free) {
   FillOutcome outcome;
   if (options.refine_iterations() > 5) {
     outcome.status = {StatusCode::InvalidArgument, "refine_iterations must be 1-5 (0 = default)"};
@@ -299,8 +344,20 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
   delta.set_version(document.version + 1);
   pending_vertex_map_.clear();
   pending_face_map_.clear();
-  std::uint32_t next_vertex = static_cast<std::uint32_t>(document.positions.size());
-  std::uint32_t next_face = static_cast<std::uint32_t>(document.faces.size());
+  // Slot allocation: dead slots from first_free on (reused), then the end of the arrays.
+  std::uint32_t next_vertex = std::min<std::uint32_t>(
+      first_free.vertices, static_cast<std::uint32_t>(document.positions.size()));
+  std::uint32_t next_face =
+      std::min<std::uint32_t>(first_free.faces, static_cast<std::uint32_t>(document.faces.size()));
+  const auto take_vertex_slot = [&] {
+    while (next_vertex < document.positions.size() && document.vertex_alive[next_vertex])
+      ++next_vertex;
+    return next_vertex++;
+  };
+  const auto take_face_slot = [&] {
+    while (next_face < document.faces.size() && document.face_alive[next_face]) ++next_face;
+    return next_face++;
+  };
   std::vector<std::uint32_t> vertex_map = doc_of_mesh_vertex_;
   vertex_map.resize(mesh_.n_vertices(), kNoId);
   outcome.report.set_holes_found(static_cast<std::uint32_t>(report.holes_found));
@@ -325,18 +382,20 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
   std::sort(new_faces.begin(), new_faces.end());
   for (const auto v : new_vertices) {
     const auto& p = mesh_.point(v);
-    vertex_map[static_cast<std::size_t>(v.idx())] = next_vertex;
+    const std::uint32_t slot = take_vertex_slot();
+    vertex_map[static_cast<std::size_t>(v.idx())] = slot;
     pending_vertex_map_.push_back(static_cast<std::uint32_t>(v.idx()));
-    pending_vertex_map_.push_back(next_vertex);
-    delta.add_added_vertex_ids(next_vertex++);
+    pending_vertex_map_.push_back(slot);
+    delta.add_added_vertex_ids(slot);
     delta.add_added_positions(p[0]);
     delta.add_added_positions(p[1]);
     delta.add_added_positions(p[2]);
   }
   for (const auto f : new_faces) {
+    const std::uint32_t slot = take_face_slot();
     pending_face_map_.push_back(static_cast<std::uint32_t>(f.idx()));
-    pending_face_map_.push_back(next_face);
-    delta.add_added_face_ids(next_face++);
+    pending_face_map_.push_back(slot);
+    delta.add_added_face_ids(slot);
     for (const auto v : mesh_.fv_range(f)) {
       delta.add_added_faces(vertex_map[static_cast<std::size_t>(v.idx())]);
     }
@@ -353,6 +412,12 @@ void SessionGeometry::commit_fill() {
     const std::uint32_t doc_id = pending_vertex_map_[i + 1];
     doc_of_mesh_vertex_[mesh_index] = doc_id;
     if (mesh_of_doc_vertex_.size() <= doc_id) mesh_of_doc_vertex_.resize(doc_id + 1, kNoId);
+    // A reused dead slot: its old mesh vertex (isolated) is retired, collected later.
+    if (const std::uint32_t old = mesh_of_doc_vertex_[doc_id]; old != kNoId && old != mesh_index) {
+      const VertexHandle retired(static_cast<int>(old));
+      doc_of_mesh_vertex_[old] = kNoId;
+      if (mesh_.is_isolated(retired)) mesh_.status(retired).set_deleted(true);
+    }
     mesh_of_doc_vertex_[doc_id] = mesh_index;
   }
   for (std::size_t i = 0; i + 1 < pending_face_map_.size(); i += 2) {

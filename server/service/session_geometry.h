@@ -60,6 +60,12 @@ void to_proto(const geometry::HoleFillReport& report, v1::HoleFillResult& out);
 Status export_document(const rpc::MeshDocument& document, geometry::MeshFormat format, bool binary,
                        std::string& bytes);
 
+//! Numbers of document vertex and face slots (a position in the slot arrays).
+struct SlotExtent {
+  std::uint32_t vertices = 0;
+  std::uint32_t faces = 0;
+};
+
 class SessionGeometry {
  public:
   //! Forget the cache (after undo, redo or load); the next call rebuilds it.
@@ -85,8 +91,11 @@ class SessionGeometry {
   };
   //! Fills the selected holes on the cache and returns the edit as a delta on \p document
   //! (not yet applied: the caller journals it, then applies it and calls commit_fill).
+  //! New elements take the document's slots from \p first_free on (dead slots above the
+  //! applied history, see Session), then append.
   FillOutcome fill(const rpc::MeshDocument& document, const v1::HoleSelection& selection,
-                   const v1::FillOptions& options, const geometry::FillProgress& progress);
+                   const v1::FillOptions& options, const geometry::FillProgress& progress,
+                   SlotExtent first_free = {});
   //! Records that the last fill's delta was applied to the document (else invalidate()).
   void commit_fill();
   //! Brings the cache along with an edit made elsewhere (undo, redo) instead of rebuilding
@@ -116,10 +125,11 @@ class SessionGeometry {
   std::vector<std::uint32_t> pending_face_map_;
   std::uint64_t pending_version_ = 0;
   std::optional<geometry::HoleSearchResult> holes_;
-  //! Face handles at the last rebuild: undo, redo and failed fill attempts leave deleted
-  //! elements behind (never garbage-collected in place, DESIGN.md), so once the mesh has
-  //! grown by a quarter the cache is rebuilt (amortised O(1) per edit).
+  //! Face handles at the last rebuild or compaction: undo, redo and failed fill attempts
+  //! leave deleted faces behind, so once the mesh has grown by a quarter its edges and faces
+  //! are garbage-collected in place (amortised O(1) per edit).
   std::size_t faces_at_rebuild_ = 0;
+  std::size_t vertices_at_rebuild_ = 0;
   void bound_growth();
 };
 

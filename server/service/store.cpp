@@ -249,13 +249,25 @@ Status Store::append_journal(const JournalRow& row, const SnapshotRow* snapshot)
 
 Status Store::write_snapshot(const SnapshotRow& row) {
   std::lock_guard lock(mutex_);
-  if (!insert_snapshot(db_, row)) return error("snapshot");
-  // Older snapshots are no longer needed for recovery.
-  Statement st(db_, "DELETE FROM snapshots WHERE session_id=? AND version<?");
-  st.bind_text(1, row.session_id);
-  st.bind(2, static_cast<std::int64_t>(row.version));
-  st.step();
-  return {};
+  // A snapshot only shortens recovery (the journal past it is replayed), so it skips its own
+  // fsync: in WAL mode synchronous=NORMAL still keeps the database consistent across a crash,
+  // and the next journal commit (FULL) makes these pages durable too. One transaction, so a
+  // crash never leaves the new snapshot missing with the older ones already deleted.
+  exec("PRAGMA synchronous=NORMAL");
+  Status result;
+  if (result = exec("BEGIN IMMEDIATE"); result.is_ok()) {
+    Statement st(db_, "DELETE FROM snapshots WHERE session_id=? AND version<?");
+    st.bind_text(1, row.session_id);
+    st.bind(2, static_cast<std::int64_t>(row.version));
+    if (!insert_snapshot(db_, row) || st.step() != SQLITE_DONE) {
+      result = error("snapshot");
+      exec("ROLLBACK");
+    } else if (result = exec("COMMIT"); !result.is_ok()) {
+      exec("ROLLBACK");
+    }
+  }
+  exec("PRAGMA synchronous=FULL");
+  return result;
 }
 
 std::optional<SnapshotRow> Store::latest_snapshot(const std::string& session_id) {

@@ -75,7 +75,12 @@ std::string annulus_off(int inner) {
   return off;
 }
 
-void round_trip(const ServerProcess& server, int iterations) {
+// One measured interaction per iteration, then an undo so the hole is back for the next.
+// `select_first`: the client asks FindNearestHole, then fills that id (two calls, as a client
+// that shows the hole before filling it); otherwise one FillHoles call selects the hole nearest
+// the point on the server (the haptic station's button press: it highlights holes from its own
+// replica, so the press is the only round trip).
+void round_trip(const ServerProcess& server, int iterations, bool select_first) {
   auto channel_a = server.connect();
   auto channel_b = server.connect();
   net::RepairClient a(channel_a), b(channel_b);
@@ -95,12 +100,16 @@ void round_trip(const ServerProcess& server, int iterations) {
   std::uint32_t boundary = 0;
   for (int i = 0; i < iterations + 5; ++i) {
     const auto start = Clock::now();
-    v1::FindNearestHoleResponse nearest;
-    a.find_nearest_hole(info.session_id(), near, nearest);
-    boundary = nearest.hole().boundary_edges();
     v1::FillHolesRequest fill;
     fill.set_session_id(info.session_id());
-    fill.mutable_selection()->mutable_ids()->add_ids(nearest.hole().id());
+    if (select_first) {
+      v1::FindNearestHoleResponse nearest;
+      a.find_nearest_hole(info.session_id(), near, nearest);
+      boundary = nearest.hole().boundary_edges();
+      fill.mutable_selection()->mutable_ids()->add_ids(nearest.hole().id());
+    } else {
+      *fill.mutable_selection()->mutable_near() = near;
+    }
     v1::EditResponse edit;
     const auto fill_start = Clock::now();
     if (auto s = a.fill_holes(fill, edit); !s.is_ok()) {
@@ -108,6 +117,8 @@ void round_trip(const ServerProcess& server, int iterations) {
       return;
     }
     const auto fill_end = Clock::now();
+    if (!select_first && edit.report().holes_size() == 1)
+      boundary = edit.report().holes(0).boundary_vertices();
     v1::SessionEvent event;
     while (stream->read(event, 10s)) {
       if (event.has_delta() && event.delta().version() == edit.version()) break;
@@ -124,11 +135,11 @@ void round_trip(const ServerProcess& server, int iterations) {
     }
   }
   std::cout << fmt::format(
-      "round trip, {}-vertex hole (select -> fill -> delta at a 2nd client): {}\n", boundary,
+      "round trip, {}-vertex hole, {}:\n  select -> fill -> delta at a 2nd client: {}\n", boundary,
+      select_first ? "FindNearestHole then FillHoles{ids}" : "one FillHoles{near point} call",
       percentiles(total));
-  std::cout << fmt::format(
-      "  of which the FillHoles call:                                        {}\n",
-      percentiles(fill_only));
+  std::cout << fmt::format("  of which the FillHoles call:              {}\n",
+                           percentiles(fill_only));
 }
 
 void sweep(const ServerProcess& server, pid_t pid, int clients, double seconds) {
@@ -258,7 +269,8 @@ int main(int argc, char** argv) {
   }
   std::cout << fmt::format("machine: {} cores; server {}\n", std::thread::hardware_concurrency(),
                            TOUCHMEND_SERVER_PATH);
-  round_trip(server, iterations);
+  round_trip(server, iterations, false);
+  round_trip(server, iterations, true);
   if (!skip_sweep) {
     for (int n : sweep_clients) sweep(server, server.pid(), n, sweep_seconds);
   }

@@ -1,5 +1,7 @@
 #include "server/geometry/intersection.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "server/geometry/mesh_build.h"
@@ -52,6 +54,44 @@ TEST(MeshIntersections, ClosedMeshesDoNotSelfIntersectButOverlapsDo) {
   for (auto p : b.points) a.points.push_back(p + Vec3(0.5, 0.5, 0.5));
   for (auto t : b.triangles) a.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
   EXPECT_FALSE(find_self_intersections(build_mesh(a).mesh).empty());
+}
+
+TEST(MeshIntersections, InjectiveProjectionAndTestsAgainstTheRest) {
+  // A wavy graph z = f(x, y) projects injectively onto z = 0, whatever its heights.
+  Mesh wavy = build_mesh(testing::grid(6, 6, [](double x, double y) {
+                return 0.3 * std::sin(x) * std::cos(y);
+              })).mesh;
+  std::vector<FaceHandle> all(wavy.faces().begin(), wavy.faces().end());
+  const ReferenceFrame plane = ReferenceFrame::from_normal(Vec3(0, 0, 1), Vec3(0, 0, 0));
+  EXPECT_TRUE(projects_injectively(wavy, all, plane));
+  // Seen edge-on (the plane's normal along x) every triangle flattens or flips: not injective.
+  EXPECT_FALSE(
+      projects_injectively(wavy, all, ReferenceFrame::from_normal(Vec3(1, 0, 0), Vec3(0, 0, 0))));
+  // Fold one interior vertex over its neighbours: some triangles flip in projection.
+  Mesh folded = build_mesh(testing::grid(4, 4)).mesh;
+  for (const VertexHandle v : folded.vertices()) {
+    const Vec3 p = folded.point(v);
+    if (p == Vec3(2, 2, 0)) folded.set_point(v, Vec3(3.5, 2.2, 0));
+  }
+  std::vector<FaceHandle> folded_faces(folded.faces().begin(), folded.faces().end());
+  EXPECT_FALSE(projects_injectively(folded, folded_faces, plane));
+  EXPECT_FALSE(find_self_intersections(folded).empty());
+
+  // find_intersections_with_rest skips pairs inside the chosen set, not pairs with the rest.
+  MeshSoup two = testing::grid(2, 2);
+  const auto offset = static_cast<std::uint32_t>(two.points.size());
+  for (const Vec3& p : testing::grid(2, 2).points) two.points.push_back(Vec3(1, p[1], p[0] - 1));
+  for (const auto& t : testing::grid(2, 2).triangles)
+    two.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  const Mesh crossing = build_mesh(two).mesh;
+  std::vector<FaceHandle> first_sheet;
+  for (const FaceHandle f : crossing.faces())
+    if (f.idx() < 8) first_sheet.push_back(f);
+  EXPECT_FALSE(find_intersections_with_rest(crossing, first_sheet).empty());
+  EXPECT_FALSE(find_face_intersections(crossing, first_sheet).empty());
+  std::vector<FaceHandle> both(crossing.faces().begin(), crossing.faces().end());
+  EXPECT_TRUE(find_intersections_with_rest(crossing, both).empty());
+  EXPECT_FALSE(find_face_intersections(crossing, both).empty());
 }
 
 }  // namespace
