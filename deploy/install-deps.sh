@@ -13,6 +13,10 @@ packages=(
   libcli11-dev libfmt-dev nlohmann-json3-dev
   # wire protocol, transport (Asio/Beast), TLS, embedded store, structured logs
   libprotobuf-dev protobuf-compiler libboost-dev libssl-dev libsqlite3-dev libspdlog-dev
+  # haptic station: devices over USB, the GLFW/OpenGL viewer, PNG screenshots
+  libusb-1.0-0-dev libglfw3-dev libgl-dev libpng-dev
+  # viewer tests and screenshots without a display: Xvfb with Mesa's software OpenGL
+  xvfb xauth libgl1-mesa-dri
   # test tools: certificates for the TLS tests
   openssl
   # tests
