@@ -339,7 +339,9 @@ TEST(FalconDevice, IoLoopHomesReportsPositionsAndNeverForcesUnhomed) {
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
   for (const Command& c : fake.commands_copy()) {
     EXPECT_EQ(c.motors, (std::array<std::int16_t, 3>{0, 0, 0}));
-    if (c.flags != 0) EXPECT_TRUE(c.flags & kHoming);  // (flags 0: open()'s firmware probe)
+    if (c.flags != 0) {  // (flags 0: open()'s firmware probe)
+      EXPECT_TRUE(c.flags & kHoming);
+    }
   }
   // Homed: the position comes out of forward kinematics, and forces reach the motors.
   fake.set_homed(true);
