@@ -33,8 +33,9 @@ struct MeshDocument {
 Status apply_delta(MeshDocument& document, const v1::MeshDelta& delta);
 
 //! The edit that undoes \p delta on \p document (whose version becomes the base). Elements
-//! the delta removed come back with the contents their dead slots still hold: new elements
-//! are always appended, so a dead slot is only ever refilled by undo/redo with the same data.
+//! the delta removed come back with the contents their dead slots still hold. (A new edit may
+//! reuse dead slots only above every slot the applied history refers to: those belong to
+//! undone edits whose redo the new edit discards, so an undo never meets a reused slot.)
 v1::MeshDelta invert_delta(const v1::MeshDelta& delta, const MeshDocument& document);
 
 //! \p delta again, re-based onto \p base_version (redo).

@@ -578,51 +578,63 @@ void RepairService::interact(const CallPtr& call) {
       state->presence.set_client_id(static_cast<std::uint32_t>(call->connection_id()));
     }
     SessionPtr session = state->session;
+    // One tool sample: validated, counted, conflated to the newest pose for the session's
+    // strand (presence at up to 30 Hz). False if the call was finished (bad sample).
+    const auto accept_tool = [&](const v1::ToolSample& tool) -> bool {
+      if (!finite(tool.position()) || !finite(tool.direction()) || !std::isfinite(tool.radius())) {
+        call->finish({StatusCode::InvalidArgument, "tool sample with NaN/inf"});
+        return false;
+      }
+      state->last_seq = std::max(state->last_seq, tool.seq());
+      ++state->received;
+      metrics_.tool_samples.fetch_add(1, std::memory_order_relaxed);
+      bool schedule = false;
+      {
+        std::lock_guard lock(state->mutex);
+        if (state->pending && !state->pending->stroke_begin() && !state->pending->stroke_end()) {
+          ++state->conflated;  // superseded before the session got to it
+          metrics_.tool_samples_conflated.fetch_add(1, std::memory_order_relaxed);
+        }
+        state->pending = tool;
+        if (!state->scheduled) state->scheduled = schedule = true;
+      }
+      if (schedule) {
+        asio::post(session->strand(), [session, state] {
+          std::optional<v1::ToolSample> sample;
+          {
+            std::lock_guard lock(state->mutex);
+            sample = std::move(state->pending);
+            state->pending.reset();
+            state->scheduled = false;
+          }
+          if (!sample) return;
+          *state->presence.mutable_tool_position() = sample->position();
+          // Other operators see the tool at up to 30 Hz; the haptic loop itself is local.
+          const auto now = std::chrono::steady_clock::now();
+          if (now - state->last_presence >= std::chrono::milliseconds(33) ||
+              sample->stroke_end()) {
+            state->last_presence = now;
+            session->publish_presence(state->presence);
+          }
+        });
+      }
+      if (tool.stroke_end() ||
+          std::chrono::steady_clock::now() - state->last_ack >= std::chrono::milliseconds(50)) {
+        send_ack();
+      }
+      return true;
+    };
     switch (message.body_case()) {
-      case v1::InteractionMessage::kTool: {
-        const auto& tool = message.tool();
-        if (!finite(tool.position()) || !finite(tool.direction()) ||
-            !std::isfinite(tool.radius())) {
-          call->finish({StatusCode::InvalidArgument, "tool sample with NaN/inf"});
+      case v1::InteractionMessage::kTool:
+        accept_tool(message.tool());
+        return;
+      case v1::InteractionMessage::kTools: {
+        if (message.tools().samples_size() > 1000) {
+          call->finish({StatusCode::InvalidArgument, "more than 1000 tool samples in a batch"});
           return;
         }
-        state->last_seq = std::max(state->last_seq, tool.seq());
-        ++state->received;
-        metrics_.tool_samples.fetch_add(1, std::memory_order_relaxed);
-        bool schedule = false;
-        {
-          std::lock_guard lock(state->mutex);
-          if (state->pending && !state->pending->stroke_begin() && !state->pending->stroke_end()) {
-            ++state->conflated;  // superseded before the session got to it
-            metrics_.tool_samples_conflated.fetch_add(1, std::memory_order_relaxed);
-          }
-          state->pending = tool;
-          if (!state->scheduled) state->scheduled = schedule = true;
-        }
-        if (schedule) {
-          asio::post(session->strand(), [session, state] {
-            std::optional<v1::ToolSample> sample;
-            {
-              std::lock_guard lock(state->mutex);
-              sample = std::move(state->pending);
-              state->pending.reset();
-              state->scheduled = false;
-            }
-            if (!sample) return;
-            *state->presence.mutable_tool_position() = sample->position();
-            // Other operators see the tool at up to 30 Hz; the haptic loop itself is local.
-            const auto now = std::chrono::steady_clock::now();
-            if (now - state->last_presence >= std::chrono::milliseconds(33) ||
-                sample->stroke_end()) {
-              state->last_presence = now;
-              session->publish_presence(state->presence);
-            }
-          });
-        }
-        if (tool.stroke_end() ||
-            std::chrono::steady_clock::now() - state->last_ack >= std::chrono::milliseconds(50)) {
-          send_ack();
-        }
+        for (const auto& tool : message.tools().samples())
+          if (!accept_tool(tool)) return;
         return;
       }
       case v1::InteractionMessage::kSelection: {

@@ -1,5 +1,7 @@
 #include "server/service/session_geometry.h"
 
+#include <unordered_map>
+
 #include <algorithm>
 
 #include "server/geometry/metrics.h"
@@ -227,9 +229,15 @@ std::uint32_t SessionGeometry::doc_vertex(std::size_t mesh_index) const {
   return mesh_index < doc_of_mesh_vertex_.size() ? doc_of_mesh_vertex_[mesh_index] : kNoId;
 }
 
+std::uint32_t SessionGeometry::doc_hole_id(const geometry::Hole& hole) const {
+  std::uint32_t id = kNoId;
+  for (const auto v : hole.loop) id = std::min(id, doc_vertex(static_cast<std::size_t>(v.idx())));
+  return id;
+}
+
 v1::Hole SessionGeometry::hole_to_proto(const geometry::Hole& hole) const {
   v1::Hole out;
-  out.set_id(doc_vertex(hole.id));
+  out.set_id(doc_hole_id(hole));
   for (const auto v : hole.loop) out.add_loop(doc_vertex(static_cast<std::size_t>(v.idx())));
   out.set_boundary_edges(static_cast<std::uint32_t>(hole.size()));
   out.set_perimeter(hole.perimeter);
@@ -315,12 +323,14 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
     const auto& found = search();
     std::vector<std::uint32_t> unknown;
     for (const std::uint32_t id : selection.ids().ids()) {
-      const std::uint32_t mesh_id =
-          id < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[id] : kNoId;
-      if (mesh_id == kNoId || !geometry::find_hole_by_id(found.holes, mesh_id)) {
+      // A hole's id is the smallest document vertex id on its boundary (the mesh cache's
+      // own indices differ once it has been compacted).
+      const auto it = std::find_if(found.holes.begin(), found.holes.end(),
+                                   [&](const geometry::Hole& h) { return doc_hole_id(h) == id; });
+      if (it == found.holes.end()) {
         unknown.push_back(id);
       } else {
-        sel.ids.push_back(mesh_id);
+        sel.ids.push_back(it->id);
       }
     }
     if (!unknown.empty()) {
@@ -331,6 +341,12 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
       return outcome;
     }
   }
+  std::unordered_map<std::uint32_t, std::uint32_t> doc_ids_of_holes;  // geometry id -> doc id
+  for (const auto& h : search().holes) doc_ids_of_holes[h.id] = doc_hole_id(h);
+  const auto doc_id_of_hole = [&](std::uint32_t geometry_id) {
+    const auto it = doc_ids_of_holes.find(geometry_id);
+    return it != doc_ids_of_holes.end() ? it->second : doc_vertex(geometry_id);
+  };
   const geometry::FillReport report =
       geometry::fill_holes(mesh_, sel, to_fill_options(options), progress, &search());
   holes_.reset();  // the mesh changed (or attempts left deleted elements): search again next time
@@ -369,7 +385,7 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
   for (const auto& h : report.holes) {
     v1::HoleFillResult* r = outcome.report.add_holes();
     to_proto(h, *r);
-    r->set_hole_id(doc_vertex(h.hole_id));
+    r->set_hole_id(doc_id_of_hole(h.hole_id));
     if (!h.filled) continue;
     for (const auto v : h.new_vertices) {
       if (!mesh_.status(v).deleted()) new_vertices.push_back(v);

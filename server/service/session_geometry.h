@@ -111,6 +111,8 @@ class SessionGeometry {
   //! interactive path: the second call reuses the first's search and projectability test).
   geometry::HoleSearchResult& search();
   v1::Hole hole_to_proto(const geometry::Hole& hole) const;
+  //! The smallest document vertex id on the hole's boundary: its stable id on the wire.
+  std::uint32_t doc_hole_id(const geometry::Hole& hole) const;
   std::uint32_t doc_vertex(std::size_t mesh_index) const;
 
   bool valid_ = false;
