@@ -35,8 +35,10 @@ bool parse_number(std::string_view field, T& value) {
 
 }  // namespace
 
-DeviceStatus parse_trajectory(const std::string& text, std::vector<TrajectorySample>& out) {
+DeviceStatus parse_trajectory(const std::string& text, Trajectory& trajectory) {
+  std::vector<TrajectorySample>& out = trajectory.samples;
   out.clear();
+  trajectory.workspace.setEmpty();
   std::size_t line_number = 0;
   bool have_header = false;
   std::size_t start = 0;
@@ -67,6 +69,20 @@ DeviceStatus parse_trajectory(const std::string& text, std::vector<TrajectorySam
       continue;
     }
     std::string_view rest = line, f;
+    if (line.rfind("workspace", 0) == 0) {
+      if (!out.empty()) return fail("the workspace line must come before the samples");
+      next_field(rest, f);
+      double box[6];
+      for (double& value : box) {
+        if (!next_field(rest, f) || !parse_number(f, value) || !std::isfinite(value))
+          return fail("expected 'workspace minx miny minz maxx maxy maxz'");
+      }
+      trajectory.workspace = Eigen::AlignedBox3d(Eigen::Vector3d(box[0], box[1], box[2]),
+                                                 Eigen::Vector3d(box[3], box[4], box[5]));
+      if (trajectory.workspace.isEmpty()) return fail("the workspace box is empty");
+      if (end == text.size()) break;
+      continue;
+    }
     TrajectorySample s;
     double values[4];
     for (double& value : values) {
@@ -90,7 +106,7 @@ DeviceStatus parse_trajectory(const std::string& text, std::vector<TrajectorySam
   return {};
 }
 
-DeviceStatus read_trajectory(const std::filesystem::path& file, std::vector<TrajectorySample>& out) {
+DeviceStatus read_trajectory(const std::filesystem::path& file, Trajectory& out) {
   std::ifstream in(file, std::ios::binary);
   if (!in) return DeviceStatus::failure("cannot open trajectory " + file.string());
   std::error_code ec;
@@ -103,10 +119,15 @@ DeviceStatus read_trajectory(const std::filesystem::path& file, std::vector<Traj
   return s;
 }
 
-std::string format_trajectory(const std::vector<TrajectorySample>& samples) {
-  std::string out = fmt::format("touchmend-trajectory {}\n# t_seconds x y z buttons (metres)\n",
-                                kTrajectoryVersion);
-  for (const auto& s : samples) {
+std::string format_trajectory(const Trajectory& trajectory) {
+  std::string out = fmt::format("touchmend-trajectory {}\n", kTrajectoryVersion);
+  if (!trajectory.workspace.isEmpty()) {
+    const auto& a = trajectory.workspace.min();
+    const auto& b = trajectory.workspace.max();
+    out += fmt::format("workspace {} {} {} {} {} {}\n", a.x(), a.y(), a.z(), b.x(), b.y(), b.z());
+  }
+  out += "# t_seconds x y z buttons (metres)\n";
+  for (const auto& s : trajectory.samples) {
     // Shortest round-trip formatting: a replayed file reproduces the recorded doubles.
     out += fmt::format("{:.9f} {} {} {} {}\n", s.t, s.position.x(), s.position.y(),
                        s.position.z(), s.buttons);
@@ -114,13 +135,12 @@ std::string format_trajectory(const std::vector<TrajectorySample>& samples) {
   return out;
 }
 
-DeviceStatus write_trajectory(const std::filesystem::path& file,
-                              const std::vector<TrajectorySample>& samples) {
+DeviceStatus write_trajectory(const std::filesystem::path& file, const Trajectory& trajectory) {
   const std::filesystem::path temp = file.string() + ".tmp-" + std::to_string(::getpid());
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     if (!out) return DeviceStatus::failure("cannot write " + temp.string());
-    out << format_trajectory(samples);
+    out << format_trajectory(trajectory);
     out.flush();
     if (!out) {
       std::error_code ec;
@@ -139,9 +159,8 @@ DeviceStatus write_trajectory(const std::filesystem::path& file,
 
 // ---------------------------------------------------------------------------------------
 
-ReplayDevice::ReplayDevice(std::vector<TrajectorySample> samples, std::string name,
-                           ReplayOptions options)
-    : samples_(std::move(samples)), options_(options) {
+ReplayDevice::ReplayDevice(Trajectory trajectory, std::string name, ReplayOptions options)
+    : samples_(std::move(trajectory.samples)), options_(options) {
   info_.kind = "replay";
   info_.name = "replay of " + name;
   info_.force_dof = 0;
@@ -149,7 +168,9 @@ ReplayDevice::ReplayDevice(std::vector<TrajectorySample> samples, std::string na
   info_.max_stiffness = 2000;
   info_.max_damping = 10;
   info_.buttons = 2;
-  if (!samples_.empty()) {
+  if (!trajectory.workspace.isEmpty()) {
+    info_.workspace = trajectory.workspace;
+  } else if (!samples_.empty()) {
     Eigen::AlignedBox3d box;
     for (const auto& s : samples_) box.extend(s.position);
     info_.workspace = box;
@@ -158,9 +179,9 @@ ReplayDevice::ReplayDevice(std::vector<TrajectorySample> samples, std::string na
 
 DeviceStatus ReplayDevice::from_file(const std::filesystem::path& file, ReplayOptions options,
                                      std::unique_ptr<ReplayDevice>& out) {
-  std::vector<TrajectorySample> samples;
-  if (DeviceStatus s = read_trajectory(file, samples); !s.ok) return s;
-  out = std::make_unique<ReplayDevice>(std::move(samples), file.filename().string(), options);
+  Trajectory trajectory;
+  if (DeviceStatus s = read_trajectory(file, trajectory); !s.ok) return s;
+  out = std::make_unique<ReplayDevice>(std::move(trajectory), file.filename().string(), options);
   return {};
 }
 
@@ -241,7 +262,7 @@ std::string RecordingDevice::last_error() const {
 
 DeviceStatus RecordingDevice::save() {
   if (samples_.empty()) return DeviceStatus::failure("nothing was recorded");
-  DeviceStatus s = write_trajectory(file_, samples_);
+  DeviceStatus s = write_trajectory(file_, Trajectory{samples_, inner_.info().workspace});
   if (!s.ok) save_error_ = s.message;
   return s;
 }

@@ -6,12 +6,15 @@
 //! \details Format, version 1 (text, one sample per line, `#` starts a comment line):
 //!
 //!     touchmend-trajectory 1
+//!     workspace -0.1 -0.1 -0.1 0.1 0.1 0.1
 //!     # t_seconds x y z buttons
 //!     0.000000000 0.012 -0.003 0.040 0
 //!     0.001000000 0.012 -0.003 0.039 1
 //!
 //! t is seconds from the first sample (non-decreasing), x y z metres in the device frame,
-//! buttons a decimal bit mask. A reader rejects other versions, non-finite numbers, time going
+//! buttons a decimal bit mask. The optional `workspace` line (before the samples) is the
+//! recording device's workspace box, min then max corner, so a replay maps onto the model the
+//! way the recording did; without it the samples' bounding box is used. A reader rejects other versions, non-finite numbers, time going
 //! backwards and more than 50 million samples, naming the line.
 
 #include <filesystem>
@@ -31,12 +34,16 @@ struct TrajectorySample {
 inline constexpr int kTrajectoryVersion = 1;
 inline constexpr std::size_t kMaxTrajectorySamples = 50'000'000;
 
-DeviceStatus parse_trajectory(const std::string& text, std::vector<TrajectorySample>& out);
-DeviceStatus read_trajectory(const std::filesystem::path& file, std::vector<TrajectorySample>& out);
-std::string format_trajectory(const std::vector<TrajectorySample>& samples);
+struct Trajectory {
+  std::vector<TrajectorySample> samples;
+  Eigen::AlignedBox3d workspace;  //!< empty when the file has no workspace line
+};
+
+DeviceStatus parse_trajectory(const std::string& text, Trajectory& out);
+DeviceStatus read_trajectory(const std::filesystem::path& file, Trajectory& out);
+std::string format_trajectory(const Trajectory& trajectory);
 //! Writes atomically (a temporary file renamed over the target).
-DeviceStatus write_trajectory(const std::filesystem::path& file,
-                              const std::vector<TrajectorySample>& samples);
+DeviceStatus write_trajectory(const std::filesystem::path& file, const Trajectory& trajectory);
 
 struct ReplayOptions {
   bool virtual_clock = false;  //!< advance() moves time; else the steady clock
@@ -47,7 +54,7 @@ struct ReplayOptions {
 //! last kept) so a test can inspect what the loop commanded.
 class ReplayDevice final : public HapticDevice {
  public:
-  ReplayDevice(std::vector<TrajectorySample> samples, std::string name, ReplayOptions options = {});
+  ReplayDevice(Trajectory trajectory, std::string name, ReplayOptions options = {});
   static DeviceStatus from_file(const std::filesystem::path& file, ReplayOptions options,
                                 std::unique_ptr<ReplayDevice>& out);
 

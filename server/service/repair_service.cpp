@@ -553,6 +553,7 @@ void RepairService::interact(const CallPtr& call) {
     v1::InteractionEvent event;
     auto* ack = event.mutable_ack();
     ack->set_last_seq(state->last_seq);
+    ack->set_client_id(static_cast<std::uint32_t>(call->connection_id()));
     ack->set_tool_samples_received(state->received);
     {
       std::lock_guard lock(state->mutex);

@@ -185,20 +185,23 @@ TEST(SimulatedDevice, HandPullsTheStylusToTheTargetAndForcesPushBack) {
 }
 
 TEST(Trajectory, FormatRoundTripAndClearErrors) {
-  std::vector<TrajectorySample> samples;
+  Trajectory trajectory;
+  trajectory.workspace = Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  std::vector<TrajectorySample>& samples = trajectory.samples;
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-0.05, 0.05);
   for (int i = 0; i < 500; ++i)
     samples.push_back({i * 0.001, Eigen::Vector3d(u(rng), u(rng), u(rng)), std::uint32_t(i % 3)});
-  std::vector<TrajectorySample> back;
-  ASSERT_TRUE(parse_trajectory(format_trajectory(samples), back).ok);
-  ASSERT_EQ(back.size(), samples.size());
+  Trajectory back;
+  ASSERT_TRUE(parse_trajectory(format_trajectory(trajectory), back).ok);
+  ASSERT_EQ(back.samples.size(), samples.size());
+  EXPECT_TRUE(back.workspace.isApprox(trajectory.workspace));
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    EXPECT_EQ(back[i].position, samples[i].position);  // exact: shortest round-trip digits
-    EXPECT_EQ(back[i].buttons, samples[i].buttons);
+    EXPECT_EQ(back.samples[i].position, samples[i].position);  // exact: shortest round-trip
+    EXPECT_EQ(back.samples[i].buttons, samples[i].buttons);
   }
   auto error = [](const std::string& text) {
-    std::vector<TrajectorySample> out;
+    Trajectory out;
     const DeviceStatus s = parse_trajectory(text, out);
     EXPECT_FALSE(s.ok) << text;
     return s.message;
@@ -211,6 +214,8 @@ TEST(Trajectory, FormatRoundTripAndClearErrors) {
   EXPECT_NE(error("touchmend-trajectory 1\n0 0 0 0\n").find("expected"), std::string::npos);
   EXPECT_NE(error("touchmend-trajectory 1\n0 0 0 0 -1\n").find("buttons"), std::string::npos);
   EXPECT_NE(error("touchmend-trajectory 1\n# only a comment\n").find("no samples"), std::string::npos);
+  EXPECT_NE(error("touchmend-trajectory 1\n0 0 0 0 0\nworkspace 0 0 0 1 1 1\n").find("before"), std::string::npos);
+  EXPECT_NE(error("touchmend-trajectory 1\nworkspace 0 0 0 1 1\n").find("workspace"), std::string::npos);
 }
 
 TEST(Trajectory, RecordThenReplayReproducesTheMotion) {
@@ -239,6 +244,7 @@ TEST(Trajectory, RecordThenReplayReproducesTheMotion) {
   ASSERT_TRUE(ReplayDevice::from_file(file, ro, replay).ok);
   ASSERT_TRUE(replay->open().ok);
   EXPECT_NEAR(replay->duration_seconds(), 0.299, 1e-9);
+  EXPECT_TRUE(replay->info().workspace.isApprox(sim.info().workspace));  // kept in the file
   DeviceState s;
   replay->advance(250 * kTick);
   ASSERT_TRUE(replay->read(s));

@@ -1,0 +1,313 @@
+#include "client/app/station.h"
+
+#include <algorithm>
+#include <limits>
+#include <unordered_map>
+
+#include <fmt/format.h>
+
+namespace touchmend::app {
+namespace {
+
+double distance_to_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
+}
+
+Vec3 closest_on_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return a + t * ab;
+}
+
+}  // namespace
+
+std::vector<HoleLoop> find_boundary_loops(const haptics::SurfaceMesh& mesh) {
+  // Directed edges of all triangles; a boundary edge (a, b) has no twin (b, a). The hole
+  // runs along the reversed boundary edges.
+  std::unordered_map<std::uint64_t, int> directed;
+  directed.reserve(mesh.triangles.size() * 3);
+  const auto key = [](std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; };
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) ++directed[key(t[k], t[(k + 1) % 3])];
+  std::unordered_multimap<std::uint32_t, std::uint32_t> next;  // along the hole: b -> a
+  for (const auto& [k, count] : directed) {
+    const auto a = static_cast<std::uint32_t>(k >> 32), b = static_cast<std::uint32_t>(k);
+    if (!directed.contains(key(b, a))) next.emplace(b, a);
+  }
+  std::vector<HoleLoop> loops;
+  while (!next.empty()) {
+    HoleLoop loop;
+    auto it = next.begin();
+    const std::uint32_t start = it->first;
+    std::uint32_t v = start;
+    for (std::size_t guard = 0; guard <= mesh.positions.size(); ++guard) {
+      it = next.find(v);
+      if (it == next.end()) break;
+      loop.vertices.push_back(v);
+      const std::uint32_t w = it->second;
+      next.erase(it);
+      v = w;
+      if (v == start) break;
+    }
+    if (loop.vertices.size() < 3) continue;
+    loop.id = *std::min_element(loop.vertices.begin(), loop.vertices.end());
+    for (const auto u : loop.vertices) loop.centroid += mesh.positions[u];
+    loop.centroid /= double(loop.vertices.size());
+    loops.push_back(std::move(loop));
+  }
+  std::sort(loops.begin(), loops.end(), [](const HoleLoop& a, const HoleLoop& b) { return a.id < b.id; });
+  return loops;
+}
+
+std::shared_ptr<haptics::SurfaceMesh> surface_from_document(const rpc::MeshDocument& document) {
+  auto s = std::make_shared<haptics::SurfaceMesh>();
+  s->version = document.version;
+  s->positions.reserve(document.positions.size());
+  for (const auto& p : document.positions) s->positions.emplace_back(p[0], p[1], p[2]);
+  for (std::size_t f = 0; f < document.faces.size(); ++f) {
+    if (!document.face_alive[f]) continue;
+    s->triangles.push_back(document.faces[f]);
+    s->face_ids.push_back(static_cast<std::uint32_t>(f));
+  }
+  return s;
+}
+
+Station::Station(std::shared_ptr<net::Channel> channel, StationOptions options)
+    : channel_(std::move(channel)), client_(channel_), options_(std::move(options)) {}
+
+Station::~Station() { stop(); }
+
+std::size_t Station::reconnects() const { return replica_ ? replica_->reconnects() : 0; }
+
+void Station::set_status(std::string text) {
+  std::lock_guard lock(mutex_);
+  view_.status = std::move(text);
+}
+
+Status Station::start() {
+  if (options_.session_id.empty()) {
+    v1::SessionInfo info;
+    if (Status s = client_.create_session("haptic station", info); !s.is_ok()) return s;
+    options_.session_id = info.session_id();
+    v1::LoadMeshResponse loaded;
+    if (Status s = client_.upload_mesh(options_.session_id, options_.mesh_bytes,
+                                       options_.mesh_format, options_.mesh_name, loaded);
+        !s.is_ok())
+      return s;
+  } else {
+    v1::SessionInfo info;
+    if (Status s = client_.open_session(options_.session_id, info); !s.is_ok()) return s;
+  }
+  replica_ = std::make_unique<net::SessionReplica>(client_, options_.session_id);
+  replica_->on_presence = [this](const v1::Presence& p) {
+    if (p.client_id() == 0 && p.principal().empty()) return;
+    const std::uint32_t own = own_client_id_.load();
+    if (own != 0 && p.client_id() == own) return;  // our own tool: drawn from the local state
+    RemoteCursor c;
+    c.principal = p.principal();
+    c.client_id = p.client_id();
+    c.position = Vec3(p.tool_position().x(), p.tool_position().y(), p.tool_position().z());
+    c.seen = std::chrono::steady_clock::now();
+    std::lock_guard lock(mutex_);
+    cursors_[p.client_id()] = c;
+  };
+  if (Status s = replica_->start(); !s.is_ok()) return s;
+  interact_ = client_.interact();
+  batch_.set_session_id(options_.session_id);
+  publish_surface();
+  {
+    std::lock_guard lock(mutex_);
+    view_.session_id = options_.session_id;
+  }
+  return {};
+}
+
+void Station::attach(haptics::HapticLoop& loop, haptics::ProxyUpdater& updater) {
+  loop_ = &loop;
+  updater_ = &updater;
+  std::shared_ptr<const haptics::SurfaceMesh> surface;
+  {
+    std::lock_guard lock(mutex_);
+    surface = view_.surface;
+  }
+  if (surface) updater_->set_surface(surface);
+}
+
+void Station::publish_surface() {
+  const rpc::MeshDocument& doc = replica_->document();
+  if (doc.version == published_version_) return;
+  published_version_ = doc.version;
+  std::shared_ptr<const haptics::SurfaceMesh> surface = surface_from_document(doc);
+  auto holes = std::make_shared<const std::vector<HoleLoop>>(find_boundary_loops(*surface));
+  if (highlight_distance_ <= 0) {
+    Eigen::AlignedBox3d box;
+    for (const auto& p : surface->positions) box.extend(p);
+    highlight_distance_ = options_.highlight_distance > 0
+                              ? options_.highlight_distance
+                              : 0.04 * (box.isEmpty() ? 1.0 : box.diagonal().norm());
+  }
+  {
+    std::lock_guard lock(mutex_);
+    view_.surface = surface;
+    view_.holes = holes;
+    view_.highlighted = -1;
+    view_.version = doc.version;
+  }
+  version_.store(doc.version);
+  if (updater_) updater_->set_surface(surface);
+}
+
+void Station::update_highlight(const Vec3& tool) {
+  std::shared_ptr<const haptics::SurfaceMesh> surface;
+  std::shared_ptr<const std::vector<HoleLoop>> holes;
+  {
+    std::lock_guard lock(mutex_);
+    surface = view_.surface;
+    holes = view_.holes;
+  }
+  int best = -1;
+  double best_distance = highlight_distance_;
+  if (surface && holes) {
+    for (std::size_t h = 0; h < holes->size(); ++h) {
+      const auto& loop = (*holes)[h].vertices;
+      for (std::size_t i = 0; i < loop.size(); ++i) {
+        const double d = distance_to_segment(tool, surface->positions[loop[i]],
+                                             surface->positions[loop[(i + 1) % loop.size()]]);
+        if (d < best_distance) {
+          best_distance = d;
+          best = static_cast<int>(h);
+        }
+      }
+    }
+  }
+  std::lock_guard lock(mutex_);
+  view_.highlighted = best;
+}
+
+void Station::request_fill(const Vec3& tool) {
+  std::shared_ptr<const haptics::SurfaceMesh> surface;
+  std::shared_ptr<const std::vector<HoleLoop>> holes;
+  int highlighted = -1;
+  {
+    std::lock_guard lock(mutex_);
+    surface = view_.surface;
+    holes = view_.holes;
+    highlighted = view_.highlighted;
+  }
+  if (highlighted < 0 || !surface || !holes) {
+    set_status("no hole under the tool: move within reach of a highlighted boundary");
+    return;
+  }
+  // The point on the highlighted boundary nearest the tool: the server fills the hole
+  // nearest to it, which is this one.
+  const auto& loop = (*holes)[static_cast<std::size_t>(highlighted)].vertices;
+  Vec3 on_boundary = surface->positions[loop[0]];
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < loop.size(); ++i) {
+    const Vec3 q = closest_on_segment(tool, surface->positions[loop[i]],
+                                      surface->positions[loop[(i + 1) % loop.size()]]);
+    if ((q - tool).norm() < best) {
+      best = (q - tool).norm();
+      on_boundary = q;
+    }
+  }
+  v1::FillHolesRequest request;
+  request.set_session_id(options_.session_id);
+  request.mutable_selection()->mutable_near()->set_x(on_boundary.x());
+  request.mutable_selection()->mutable_near()->set_y(on_boundary.y());
+  request.mutable_selection()->mutable_near()->set_z(on_boundary.z());
+  fills_.fetch_add(1);
+  v1::EditResponse response;
+  const Status s = client_.fill_holes(request, response);
+  if (!s.is_ok()) {
+    set_status("fill failed: " + s.to_string());
+    return;
+  }
+  std::string text = "fill:";
+  for (const auto& h : response.report().holes())
+    text += fmt::format(" hole {} {}", h.hole_id(),
+                        h.filled() ? fmt::format("filled ({} faces, {})", h.faces_added(), h.shape())
+                                   : "left open: " + h.reason());
+  set_status(text);
+}
+
+void Station::send_samples() {
+  if (!loop_ || !interact_) return;
+  haptics::ToolSampleOut sample;
+  while (loop_->samples().pop(sample)) {
+    const bool pressed = (sample.buttons & options_.fill_button) != 0 &&
+                         (previous_buttons_ & options_.fill_button) == 0;
+    previous_buttons_ = sample.buttons;
+    last_tool_ = sample.proxy;
+    auto* t = batch_.mutable_tools()->add_samples();
+    t->set_seq(++sample_seq_);
+    t->set_time_us(sample.time_ns / 1000);
+    t->mutable_position()->set_x(sample.proxy.x());
+    t->mutable_position()->set_y(sample.proxy.y());
+    t->mutable_position()->set_z(sample.proxy.z());
+    if (batch_.tools().samples_size() >= options_.samples_per_message) {
+      interact_->send(batch_);
+      samples_sent_.fetch_add(static_cast<std::uint64_t>(batch_.tools().samples_size()));
+      batch_.mutable_tools()->clear_samples();
+    }
+    if (pressed) {
+      update_highlight(sample.proxy);
+      request_fill(sample.proxy);
+    }
+  }
+}
+
+void Station::run_network() {
+  running_.store(true);
+  auto last_highlight = std::chrono::steady_clock::now();
+  while (running_.load()) {
+    const Status s = replica_->poll(std::chrono::milliseconds(5));
+    if (!s.is_ok()) {
+      set_status("connection: " + s.to_string() + " (rendering the last surface)");
+      if (s.code == StatusCode::NotFound) break;  // the session is gone
+    }
+    publish_surface();
+    // The interact stream dies with the connection; reopen it once the replica is back.
+    if (s.is_ok() && interact_ && interact_->finished()) interact_ = client_.interact();
+    send_samples();
+    // Acks tell us our client id (to skip our own presence) and keep the stream drained.
+    v1::InteractionEvent event;
+    while (interact_ && interact_->read(event, std::chrono::milliseconds(0))) {
+      if (event.has_ack()) {
+        own_client_id_.store(event.ack().client_id());
+        std::lock_guard lock(mutex_);
+        cursors_.erase(event.ack().client_id());
+        samples_acked_ = event.ack().tool_samples_received();
+      }
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_highlight > std::chrono::milliseconds(16)) {
+      last_highlight = now;
+      update_highlight(last_tool_);
+      std::lock_guard lock(mutex_);
+      view_.cursors.clear();
+      for (auto it = cursors_.begin(); it != cursors_.end();) {
+        if (now - it->second.seen > std::chrono::seconds(5)) {
+          it = cursors_.erase(it);
+        } else {
+          view_.cursors.push_back(it->second);
+          ++it;
+        }
+      }
+    }
+  }
+  if (interact_ && batch_.tools().samples_size() > 0) interact_->send(batch_);
+}
+
+StationView Station::view() const {
+  std::lock_guard lock(mutex_);
+  StationView v = view_;
+  v.fills = fills_.load();
+  return v;
+}
+
+}  // namespace touchmend::app

@@ -1,0 +1,130 @@
+#pragma once
+
+//! \file station.h
+//! \brief The haptic station's non-real-time side: the session replica (network thread),
+//! the client's copy of the mesh for the proxy-update thread and the viewer, hole boundaries
+//! and the hole under the tool (seed 000 §3.3), fill requests on a button press, tool samples
+//! streamed to the server in batches, and the other operators' cursors.
+//!
+//! \details Threads: the haptic thread (HapticLoop) and the proxy-update thread (ProxyUpdater)
+//! run on their own; Station::run_network() is the network thread; the UI thread (viewer or
+//! the headless main loop) reads view() snapshots. Connection loss: the replica reconnects
+//! with backoff and resumes from its version; meanwhile the haptic loop keeps rendering the
+//! last surface it has.
+
+#include <atomic>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "client/haptics/proxy_updater.h"
+#include "client/net/repair_client.h"
+
+namespace touchmend::app {
+
+using haptics::Vec3;
+using rpc::Status;
+using rpc::StatusCode;
+
+//! A boundary loop of the client's mesh (a hole), in document vertex ids.
+struct HoleLoop {
+  std::uint32_t id = 0;  //!< smallest vertex id on the loop (the server's hole id)
+  std::vector<std::uint32_t> vertices;
+  Vec3 centroid = Vec3::Zero();
+};
+
+//! Boundary loops of a surface: directed edges without their reverse, chained.
+std::vector<HoleLoop> find_boundary_loops(const haptics::SurfaceMesh& mesh);
+
+//! The client's copy of the document as a surface (alive faces only).
+std::shared_ptr<haptics::SurfaceMesh> surface_from_document(const rpc::MeshDocument& document);
+
+struct RemoteCursor {
+  std::string principal;
+  std::uint32_t client_id = 0;
+  Vec3 position = Vec3::Zero();
+  std::chrono::steady_clock::time_point seen;
+};
+
+//! What the UI draws, consistent as of one moment.
+struct StationView {
+  std::shared_ptr<const haptics::SurfaceMesh> surface;
+  std::shared_ptr<const std::vector<HoleLoop>> holes;
+  int highlighted = -1;  //!< index into holes, -1 none
+  std::vector<RemoteCursor> cursors;
+  std::string session_id;
+  std::uint64_t version = 0;
+  std::string status;  //!< last event worth showing (fill result, connection state)
+  std::uint64_t fills = 0;
+};
+
+struct StationOptions {
+  std::string session_id;  //!< open this session (empty: create one and upload mesh_bytes)
+  std::string mesh_bytes;  //!< the mesh to upload into a new session
+  std::string mesh_name = "mesh.off";
+  v1::MeshFormat mesh_format = v1::OFF;
+  double highlight_distance = 0;  //!< model units; 0 = 4% of the mesh diagonal
+  int samples_per_message = 10;
+  std::uint32_t fill_button = 1;  //!< button mask that requests a fill
+};
+
+class Station {
+ public:
+  Station(std::shared_ptr<net::Channel> channel, StationOptions options);
+  ~Station();
+
+  //! Creates or opens the session, downloads the mesh and subscribes.
+  Status start();
+  //! Connects the haptics: tool samples and state come from \p loop, surfaces go to \p updater.
+  void attach(haptics::HapticLoop& loop, haptics::ProxyUpdater& updater);
+  //! The network thread's body: returns when stop() is called.
+  void run_network();
+  void stop() { running_.store(false); }
+
+  StationView view() const;
+  const std::string& session_id() const { return options_.session_id; }
+  std::uint64_t version() const { return version_.load(); }
+  std::uint64_t fills_requested() const { return fills_.load(); }
+  std::uint64_t samples_sent() const { return samples_sent_.load(); }
+  //! Tool samples the server acknowledged (network thread).
+  std::uint64_t samples_acked() const { return samples_acked_; }
+  std::size_t reconnects() const;
+  //! The replica's document (network thread only, or after it stopped).
+  const rpc::MeshDocument& document() const { return replica_->document(); }
+
+ private:
+  void publish_surface();
+  void send_samples();
+  void update_highlight(const Vec3& tool);
+  void request_fill(const Vec3& tool);
+  void set_status(std::string text);
+
+  std::shared_ptr<net::Channel> channel_;
+  net::RepairClient client_;
+  StationOptions options_;
+  std::unique_ptr<net::SessionReplica> replica_;
+  std::unique_ptr<net::Stream> interact_;
+  haptics::HapticLoop* loop_ = nullptr;
+  haptics::ProxyUpdater* updater_ = nullptr;
+  std::atomic<bool> running_{false};
+  std::atomic<std::uint64_t> version_{0};
+  std::atomic<std::uint64_t> fills_{0};
+  std::atomic<std::uint64_t> samples_sent_{0};
+  // Network-thread state.
+  std::uint64_t published_version_ = ~0ull;
+  std::uint32_t previous_buttons_ = 0;
+  std::uint64_t sample_seq_ = 0;
+  v1::InteractionMessage batch_;
+  double highlight_distance_ = 0;
+  Vec3 last_tool_ = Vec3::Zero();
+  std::atomic<std::uint32_t> own_client_id_{0};  //!< from the interact acks
+  std::uint64_t samples_acked_ = 0;
+  // Shared with the UI thread.
+  mutable std::mutex mutex_;
+  StationView view_;
+  std::map<std::uint32_t, RemoteCursor> cursors_;
+};
+
+}  // namespace touchmend::app
