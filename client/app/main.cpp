@@ -209,14 +209,9 @@ int main(int argc, char** argv) {
   for (const auto& p : station.document().positions) model.extend(Eigen::Vector3d(p[0], p[1], p[2]));
   loop_options.workspace = haptics::WorkspaceMap::fit(model, raw->info().workspace);
   loop_options.contact.epsilon = 1e-6 * (model.isEmpty() ? 1.0 : model.diagonal().norm());
-  haptics::ProxyPatchExchange patches;
-  haptics::HapticLoop loop(safe, patches, loop_options);
-  haptics::ProxyUpdater updater(loop, patches);
-  station.attach(loop, updater);
-  updater.start();
-  loop.start();
-  safe.arm();
-  std::thread network([&] { station.run_network(); });
+  app::StationRuntime runtime(station, safe, loop_options);
+  haptics::HapticLoop& loop = runtime.loop();
+  runtime.start();
   std::signal(SIGINT, [](int) { g_interrupted = true; });
   std::signal(SIGTERM, [](int) { g_interrupted = true; });
   std::cout << "haptic loop: " << loop.stats().realtime_note << "\n";
@@ -276,10 +271,7 @@ int main(int argc, char** argv) {
       std::cout << "screenshot " << a.screenshot << "\n";
     }
   }
-  station.stop();
-  network.join();
-  loop.stop();
-  updater.stop();
+  runtime.stop();
   safe.close();
   const app::StationView v = station.view();
   std::cout << status_line(v, loop, safe) << "\n";

@@ -310,4 +310,30 @@ StationView Station::view() const {
   return v;
 }
 
+StationRuntime::StationRuntime(Station& station, device::SafetyFilter& device,
+                               haptics::HapticLoopOptions options)
+    : station_(station), device_(device), loop_(device, patches_, std::move(options)),
+      updater_(loop_, patches_) {}
+
+StationRuntime::~StationRuntime() { stop(); }
+
+void StationRuntime::start() {
+  if (started_) return;
+  started_ = true;
+  station_.attach(loop_, updater_);
+  updater_.start();
+  loop_.start();
+  network_ = std::thread([this] { station_.run_network(); });
+  device_.arm();
+}
+
+void StationRuntime::stop() {
+  if (!started_) return;
+  started_ = false;
+  station_.stop();
+  if (network_.joinable()) network_.join();
+  loop_.stop();
+  updater_.stop();
+}
+
 }  // namespace touchmend::app

@@ -17,6 +17,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "client/haptics/proxy_updater.h"
@@ -125,6 +126,30 @@ class Station {
   mutable std::mutex mutex_;
   StationView view_;
   std::map<std::uint32_t, RemoteCursor> cursors_;
+};
+
+//! The running station: the haptic loop and proxy updater on a device, wired to a Station,
+//! and the network thread. start() and stop() keep the order that is safe for the device
+//! (forces only once everything feeds the loop; zero before the device closes).
+class StationRuntime {
+ public:
+  StationRuntime(Station& station, device::SafetyFilter& device, haptics::HapticLoopOptions options);
+  ~StationRuntime();
+  //! Starts the proxy updater, the haptic loop and the network thread, then arms the device.
+  void start();
+  //! Stops the network thread, the loop (zero force) and the updater. Safe to call twice.
+  void stop();
+  haptics::HapticLoop& loop() { return loop_; }
+  haptics::ProxyUpdater& updater() { return updater_; }
+
+ private:
+  Station& station_;
+  device::SafetyFilter& device_;
+  haptics::ProxyPatchExchange patches_;
+  haptics::HapticLoop loop_;
+  haptics::ProxyUpdater updater_;
+  std::thread network_;
+  bool started_ = false;
 };
 
 }  // namespace touchmend::app

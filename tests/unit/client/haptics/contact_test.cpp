@@ -16,45 +16,14 @@
 #include "client/haptics/haptic_loop.h"
 #include "client/haptics/proxy_updater.h"
 #include "device/simulated_device.h"
+#include "tests/support/allocation_probe.h"
+#include "tests/support/haptic_meshes.h"
 
-// Allocation probe: counts operator new on the haptic thread. The replacement pair is
-// malloc/free, which g++ mistakes for a mismatch at inlined call sites.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-static std::atomic<std::uint64_t> g_haptic_allocations{0};
-void* operator new(std::size_t size) {
-  if (touchmend::haptics::on_haptic_thread()) g_haptic_allocations.fetch_add(1);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace touchmend::haptics {
 namespace {
 
-SurfaceMesh sphere(double r, int around, int rings) {
-  SurfaceMesh m;
-  m.positions.push_back(Vec3(0, 0, r));
-  for (int i = 1; i < rings; ++i) {
-    const double th = std::numbers::pi * i / rings;
-    for (int j = 0; j < around; ++j) {
-      const double ph = 2 * std::numbers::pi * j / around;
-      m.positions.push_back(Vec3(r * std::sin(th) * std::cos(ph), r * std::sin(th) * std::sin(ph), r * std::cos(th)));
-    }
-  }
-  m.positions.push_back(Vec3(0, 0, -r));
-  const auto ring = [&](int i, int j) { return std::uint32_t(1 + (i - 1) * around + (j % around)); };
-  const auto south = std::uint32_t(m.positions.size() - 1);
-  for (int j = 0; j < around; ++j) {
-    m.triangles.push_back({0, ring(1, j), ring(1, j + 1)});
-    for (int i = 1; i + 1 < rings; ++i) {
-      m.triangles.push_back({ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)});
-      m.triangles.push_back({ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)});
-    }
-    m.triangles.push_back({ring(rings - 1, j), south, ring(rings - 1, j + 1)});
-  }
-  return m;
-}
+SurfaceMesh sphere(double r, int around, int rings) { return testing::uv_sphere_surface(r, around, rings); }
 
 //! A grid z = 0 over [0, n]² (cell size 1), optionally without the cells in `hole`.
 SurfaceMesh plate(int n, const Eigen::AlignedBox2d& hole = Eigen::AlignedBox2d()) {

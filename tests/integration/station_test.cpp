@@ -1,0 +1,213 @@
+// The haptic station end to end on loopback with a real touchmend-server: a replayed
+// trajectory approaches a hole of a shared case and presses the button; the server fills it;
+// the station's mesh matches the server's; a second client sees the delta and the first
+// operator's cursor. Plus the touchmend-client binary: devices, bad devices, a viewer frame
+// under Xvfb with the mesh and a highlighted hole in it.
+
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <png.h>
+
+#include "client/app/station.h"
+#include "device/trajectory.h"
+#include "tests/integration/server_process.h"
+
+namespace touchmend::testing {
+namespace {
+
+using namespace std::chrono_literals;
+using haptics::Vec3;
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+const std::filesystem::path kCase = std::filesystem::path(TOUCHMEND_SHARED_DATA_DIR) / "cases" / "spot_sml" / "holed.off";
+
+Eigen::AlignedBox3d bounds_of(const rpc::MeshDocument& d) {
+  Eigen::AlignedBox3d box;
+  for (const auto& p : d.positions) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  return box;
+}
+
+//! A trajectory (device frame) that comes from outside to `target`, presses button 1 there,
+//! releases and stays.
+device::Trajectory approach(const haptics::WorkspaceMap& map, const Vec3& outside, const Vec3& target,
+                            const Eigen::AlignedBox3d& workspace) {
+  device::Trajectory t;
+  t.workspace = workspace;
+  for (int i = 0; i <= 1600; ++i) {
+    const double s = i * 0.001;
+    const double u = std::min(1.0, s / 0.6);
+    const Vec3 model = outside + u * (target - outside);
+    const std::uint32_t buttons = (s > 0.8 && s < 1.0) ? 1u : 0u;
+    t.samples.push_back({s, map.to_device(model), buttons});
+  }
+  return t;
+}
+
+TEST(Station, ReplayPressesOnAHoleTheServerFillsItAndEveryoneAgrees) {
+  if (!std::filesystem::exists(kCase)) GTEST_SKIP() << "shared data missing: " << kCase;
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+
+  app::StationOptions options;
+  options.mesh_bytes = read_file(kCase);
+  options.mesh_name = "holed.off";
+  app::Station station(server.connect(), options);
+  ASSERT_TRUE(station.start().is_ok());
+  const app::StationView before = station.view();
+  ASSERT_TRUE(before.holes && before.surface);
+  const std::size_t holes_before = before.holes->size();
+  ASSERT_GE(holes_before, 1u);
+
+  // A second operator on the same session.
+  auto channel_b = server.connect();
+  net::RepairClient client_b(channel_b);
+  net::SessionReplica replica_b(client_b, station.session_id());
+  std::vector<Vec3> cursors_b;
+  replica_b.on_presence = [&](const v1::Presence& p) {
+    cursors_b.emplace_back(p.tool_position().x(), p.tool_position().y(), p.tool_position().z());
+  };
+  ASSERT_TRUE(replica_b.start().is_ok());
+
+  // The trajectory: from outside the model straight onto a vertex of the first hole's rim.
+  const auto& hole = before.holes->front();
+  const Vec3 rim = before.surface->positions[hole.vertices.front()];
+  const Eigen::AlignedBox3d model = bounds_of(station.document());
+  const Vec3 outward = (rim - model.center()).normalized();
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  device::ReplayDevice replay(
+      approach(map, rim + 0.3 * model.diagonal().norm() * outward, rim, workspace), "approach");
+  device::SafetyFilter safe(replay);
+  ASSERT_TRUE(safe.open().ok);
+  haptics::HapticLoopOptions loop_options;
+  loop_options.workspace = map;
+  loop_options.contact.epsilon = 1e-6 * model.diagonal().norm();
+  app::StationRuntime runtime(station, safe, loop_options);
+  runtime.start();
+
+  // Wait for the fill to land in the station's replica.
+  const std::uint64_t start_version = station.version();
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (station.version() == start_version && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(10ms);
+  std::this_thread::sleep_for(300ms);  // the rest of the trajectory: tool samples, presence
+  runtime.stop();
+  safe.close();
+
+  const app::StationView after = station.view();
+  EXPECT_EQ(station.fills_requested(), 1u) << after.status;
+  ASSERT_GT(station.version(), start_version) << "no fill arrived; status: " << after.status;
+  EXPECT_EQ(after.status.rfind("fill:", 0), 0u) << after.status;
+  EXPECT_NE(after.status.find("filled"), std::string::npos) << after.status;
+  ASSERT_TRUE(after.holes);
+  EXPECT_EQ(after.holes->size(), holes_before - 1);
+  // The station's mesh is the server's.
+  net::RepairClient check(server.connect());
+  rpc::MeshDocument server_document;
+  ASSERT_TRUE(check.download_document(station.session_id(), server_document).is_ok());
+  EXPECT_TRUE(station.document() == server_document);
+  // The second operator got the delta and saw the first one's cursor near the hole.
+  ASSERT_TRUE(replica_b.wait_for_version(server_document.version, 10s).is_ok());
+  EXPECT_TRUE(replica_b.document() == server_document);
+  for (int i = 0; i < 20; ++i) (void)replica_b.poll(10ms);
+  ASSERT_FALSE(cursors_b.empty());
+  double nearest = 1e9;
+  for (const Vec3& c : cursors_b) nearest = std::min(nearest, (c - rim).norm());
+  EXPECT_LT(nearest, 0.05 * model.diagonal().norm());
+  // The haptic side did its part: ticks, patches, samples acknowledged.
+  EXPECT_GT(runtime.loop().stats().ticks, 500u);
+  EXPECT_GT(station.samples_sent(), 100u);
+}
+
+// ---- the binary ----
+
+int run(const std::string& command, std::string& output) {
+  const std::string file = (std::filesystem::temp_directory_path() / ("tm-client-" + std::to_string(::getpid()) + ".out")).string();
+  const int rc = std::system((command + " > " + file + " 2>&1").c_str());
+  output = read_file(file);
+  std::filesystem::remove(file);
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+TEST(ClientBinary, DevicesAndUsageErrors) {
+  std::string out;
+  EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --list-devices", out), 0) << out;
+  EXPECT_NE(out.find("sim"), std::string::npos);
+  EXPECT_NE(out.find("replay:FILE"), std::string::npos);
+  // No Falcon here: a clear message and a non-zero exit.
+  EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --device falcon --headless", out), 1) << out;
+  EXPECT_NE(out.find("Falcon"), std::string::npos) << out;
+  EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --device phantom --headless", out), 2) << out;
+  EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --device replay:/nonexistent.traj --headless", out), 1) << out;
+  EXPECT_NE(out.find("nonexistent"), std::string::npos) << out;
+  // No server: exit code 4.
+  EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --server 127.0.0.1:1 --headless --duration 1", out), 4) << out;
+}
+
+TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
+  if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run not installed";
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  // A replay that parks the tool on a rim vertex of the sample's first hole.
+  const std::string mesh = TOUCHMEND_SAMPLE_MESH;
+  net::RepairClient client(server.connect());
+  v1::SessionInfo info;
+  ASSERT_TRUE(client.create_session("viewer", info).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(client.upload_mesh(info.session_id(), read_file(mesh), v1::OFF, "spot.off", loaded).is_ok());
+  rpc::MeshDocument document;
+  ASSERT_TRUE(client.download_document(info.session_id(), document).is_ok());
+  const auto surface = app::surface_from_document(document);
+  const auto loops = app::find_boundary_loops(*surface);
+  ASSERT_FALSE(loops.empty());
+  const Vec3 rim = surface->positions[loops.front().vertices.front()];
+  const Eigen::AlignedBox3d model = bounds_of(document);
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  device::Trajectory t;
+  t.workspace = workspace;
+  for (int i = 0; i <= 100; ++i) t.samples.push_back({i * 0.01, map.to_device(rim), 0});
+  const auto traj = dir.path() / "park.traj";
+  ASSERT_TRUE(device::write_trajectory(traj, t).ok);
+  const auto png = dir.path() / "frame.png";
+  std::string out;
+  const int rc = run("xvfb-run -a -s '-screen 0 1280x1024x24' " + std::string(TOUCHMEND_CLIENT_PATH) +
+                         " --server 127.0.0.1:" + std::to_string(server.port()) + " --session " +
+                         info.session_id() + " --device replay:" + traj.string() +
+                         " --headless --duration 2 --screenshot " + png.string(),
+                     out);
+  ASSERT_EQ(rc, 0) << out;
+  ASSERT_TRUE(std::filesystem::exists(png)) << out;
+  EXPECT_NE(out.find("screenshot"), std::string::npos) << out;
+  // Decode the PNG and classify its pixels: the lit mesh is grey (r = g = b, brighter than the
+  // background), the highlighted rim is yellow (1.0, 0.85, 0.0).
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  ASSERT_TRUE(png_image_begin_read_from_file(&image, png.string().c_str())) << image.message;
+  image.format = PNG_FORMAT_RGB;
+  std::vector<std::uint8_t> pixels(PNG_IMAGE_SIZE(image));
+  ASSERT_TRUE(png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr)) << image.message;
+  std::size_t mesh_pixels = 0, highlight_pixels = 0;
+  const std::size_t total = std::size_t(image.width) * image.height;
+  for (std::size_t i = 0; i < total; ++i) {
+    const int r = pixels[3 * i], g = pixels[3 * i + 1], b = pixels[3 * i + 2];
+    if (r > 60 && std::abs(r - g) < 20 && std::abs(g - b) < 25) ++mesh_pixels;
+    if (r > 200 && g > 160 && g < 240 && b < 60) ++highlight_pixels;
+  }
+  EXPECT_GT(mesh_pixels, total / 50) << "the mesh is not drawn";
+  EXPECT_GT(highlight_pixels, 20u) << "no highlighted hole";
+  EXPECT_LT(mesh_pixels + highlight_pixels, total) << "nothing but mesh: no background";
+}
+
+}  // namespace
+}  // namespace touchmend::testing
