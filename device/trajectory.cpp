@@ -88,7 +88,7 @@ DeviceStatus parse_trajectory(const std::string& text, Trajectory& trajectory) {
     for (double& value : values) {
       if (!next_field(rest, f)) return fail("expected 't x y z buttons'");
       if (!parse_number(f, value) || !std::isfinite(value))
-        return fail("'" + std::string(f) + "' is not a finite number");
+        return fail(fmt::format("'{}' is not a finite number", f));
     }
     if (!next_field(rest, f) || !parse_number(f, s.buttons))
       return fail("expected the buttons as a non-negative integer");

@@ -42,7 +42,7 @@ struct Args {
   double damping = 2;
   double friction = 0;
   double force_cap = 0;
-  bool realtime = false;
+  bool no_realtime = false;
   std::string falcon_firmware;
   double falcon_gain = 1800;
   bool stats = false;
@@ -116,7 +116,9 @@ int main(int argc, char** argv) {
   cli.add_option("--damping", a.damping, "Contact damping, N*s/m (capped by the device)")->capture_default_str();
   cli.add_option("--friction", a.friction, "Static friction coefficient")->capture_default_str();
   cli.add_option("--force-cap", a.force_cap, "Force limit in N (0: the device's maximum)");
-  cli.add_flag("--realtime", a.realtime, "Run the haptic thread with SCHED_FIFO and locked memory");
+  cli.add_flag("--no-realtime", a.no_realtime,
+               "Do not ask for SCHED_FIFO and locked memory for the haptic thread (asked by default; "
+               "refused without the privilege, which the startup line says)");
   cli.add_option("--falcon-firmware", a.falcon_firmware, "Falcon firmware file to load if the device runs none (never shipped)");
   cli.add_option("--falcon-gain", a.falcon_gain, "Falcon motor counts per N*m (uncalibrated)")->capture_default_str();
   cli.add_flag("--stats", a.stats, "Print the loop statistics every second");
@@ -204,7 +206,7 @@ int main(int argc, char** argv) {
   loop_options.stiffness = a.stiffness;
   loop_options.damping = a.damping;
   loop_options.contact.friction = a.friction;
-  loop_options.realtime = a.realtime;
+  loop_options.realtime = !a.no_realtime;
   Eigen::AlignedBox3d model;
   for (const auto& p : station.document().positions) model.extend(Eigen::Vector3d(p[0], p[1], p[2]));
   loop_options.workspace = haptics::WorkspaceMap::fit(model, raw->info().workspace);

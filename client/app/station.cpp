@@ -249,6 +249,7 @@ void Station::send_samples() {
     t->mutable_position()->set_x(sample.proxy.x());
     t->mutable_position()->set_y(sample.proxy.y());
     t->mutable_position()->set_z(sample.proxy.z());
+    t->set_buttons(sample.buttons);
     if (batch_.tools().samples_size() >= options_.samples_per_message) {
       interact_->send(batch_);
       samples_sent_.fetch_add(static_cast<std::uint64_t>(batch_.tools().samples_size()));

@@ -93,10 +93,15 @@ void HapticLoop::start() {
     realtime_.store(rc == 0);
     realtime_note_ = rc == 0 ? "SCHED_FIFO priority " + std::to_string(options_.fifo_priority)
                              : std::string("SCHED_FIFO refused: ") + std::strerror(rc);
+#if defined(__SANITIZE_ADDRESS__)
+    // AddressSanitizer reserves terabytes of shadow memory: locking it all would exhaust RAM.
+    if (rc == 0) realtime_note_ += "; memory not locked (AddressSanitizer build)";
+#else
     if (rc == 0 && mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
       realtime_note_ += "; mlockall failed: " + std::string(std::strerror(errno));
+#endif
   } else {
-    realtime_note_ = "normal scheduling (pass --realtime for SCHED_FIFO)";
+    realtime_note_ = "normal scheduling (SCHED_FIFO not requested)";
   }
 }
 

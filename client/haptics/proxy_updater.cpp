@@ -62,6 +62,7 @@ void ProxyUpdater::build_patch(const Vec3& centre, double extra) {
   patch.triangles.build_from(whole_, scratch_);
   patches_.publish();
   patch_centre_ = centre;
+  patch_extra_ = extra;
   have_patch_ = true;
   built_.fetch_add(1);
   last_patch_size_.store(scratch_.size());
@@ -90,8 +91,11 @@ void ProxyUpdater::run() {
     // A patch around the predicted position, rebuilt once the tool has used up a third of the
     // margin. The patch must contain both the proxy and the device position (the haptic loop
     // holds the proxy still when either leaves it).
-    const bool moved = (at - patch_centre_).norm() > radius_ / 3 ||
-                       (tool.device_position - patch_centre_).norm() > radius_ / 3;
+    // (The patch is centred ahead of the motion and grown by that look-ahead: measure the
+    // margin used up against the grown radius, or a steady stroke would rebuild every poll.)
+    const double slack = radius_ / 3 + patch_extra_;
+    const bool moved = (at - patch_centre_).norm() > slack ||
+                       (tool.device_position - patch_centre_).norm() > slack;
     if (!have_patch_ || moved) {
       // Centred ahead of the motion, grown so the current position stays well inside.
       if (ahead.allFinite())

@@ -61,6 +61,7 @@ class ProxyUpdater {
   bool have_surface_ = false;
   bool have_patch_ = false;
   Vec3 patch_centre_ = Vec3::Zero();
+  double patch_extra_ = 0;
   std::uint64_t serial_ = 0;
   std::vector<std::uint32_t> scratch_;
   std::atomic<std::uint64_t> built_{0};

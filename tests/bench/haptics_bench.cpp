@@ -47,7 +47,10 @@ std::string distribution(std::vector<double> v, const char* unit) {
 
 //! Slides the goal along a great circle pressed 0.3 mm into the surface (device-scale
 //! motion: ~0.1 mm per tick), timing every god-object update.
-std::vector<double> time_contact(const haptics::TriangleSet& set, int steps, double radius, std::uint64_t& tests) {
+//! \p swing: 0 for a path along the great circle; else the angle swings back and forth by
+//! this much (to stay inside a local patch).
+std::vector<double> time_contact(const haptics::TriangleSet& set, int steps, double radius, std::uint64_t& tests,
+                                 double swing = 0) {
   haptics::GodObject god;
   const Vec3 axis = Vec3(0.3, 1, 0.2).normalized();
   const Vec3 start = Vec3(1, 0, 0).cross(axis).normalized();
@@ -56,7 +59,8 @@ std::vector<double> time_contact(const haptics::TriangleSet& set, int steps, dou
   us.reserve(std::size_t(steps));
   tests = 0;
   for (int k = 0; k < steps; ++k) {
-    const double angle = 0.0005 * k;  // radius 0.1 m -> 0.05 mm per tick
+    // 0.05 mm per tick on a 0.1 m sphere (a brisk 50 mm/s stroke).
+    const double angle = swing > 0 ? swing * std::sin(0.0005 * k / swing) : 0.0005 * k;
     const Vec3 dir = (start * std::cos(angle) + axis.cross(start) * std::sin(angle)).normalized();
     const double depth = k < 50 ? 1.5 - 0.55 * k / 50.0 : 0.97;  // approach, then pressed in
     const Vec3 goal = depth * radius * dir;
@@ -97,15 +101,15 @@ void contact_bench(int steps) {
   t0 = Clock::now();
   patch.build_from(whole, near);
   const double patch_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  // Only the part of the path inside the patch: steps while the goal is within its radius.
-  const int patch_steps = std::min(steps, int(0.8 * radius / (0.0005 * r)));
-  const auto patch_us = time_contact(patch, patch_steps, r, tests);
+  // Strokes back and forth inside the patch.
+  const int patch_steps = steps;
+  const auto patch_us = time_contact(patch, patch_steps, r, tests, 0.7 * radius / r);
   std::cout << fmt::format(
       "contact query, local patch of {} triangles (radius {:.1f} mm, build {:.1f} ms): {} (triangle tests/query {:.1f})\n",
       patch.size(), radius * 1000, patch_ms, distribution(patch_us, "us"), double(tests) / patch_steps);
 }
 
-void loop_bench(double rate, double seconds, bool realtime, bool with_viewer) {
+void loop_bench(double rate, double seconds, bool realtime, bool with_viewer, double spin_us) {
   device::SimulatedOptions so;
   device::SimulatedDevice sim(so);
   device::SafetyFilter safe(sim);
@@ -114,6 +118,7 @@ void loop_bench(double rate, double seconds, bool realtime, bool with_viewer) {
   haptics::HapticLoopOptions lo;
   lo.rate_hz = rate;
   lo.realtime = realtime;
+  lo.spin_ns = static_cast<std::int64_t>(spin_us * 1000);
   lo.workspace.scale = 1.0;
   haptics::HapticLoop loop(safe, patches, lo);
   haptics::ProxyUpdater updater(loop, patches);
@@ -168,9 +173,9 @@ void loop_bench(double rate, double seconds, bool realtime, bool with_viewer) {
   const auto& h = loop.period_error();
   const auto stats = loop.stats();
   std::cout << fmt::format(
-      "loop {:.0f} Hz, {:.0f} s, {}{}: period error p50={:.0f} p99={:.0f} p99.9={:.0f} max={:.0f} us | compute p99={:.0f} us | "
+      "loop {:.0f} Hz, spin {:.0f} us, {:.0f} s, {}{}: period error p50={:.0f} p99={:.0f} p99.9={:.0f} max={:.0f} us | compute p99={:.0f} us | "
       "{} ticks, {} overruns, {} patches, {} viewer frames, haptic-thread allocations: {} | {}\n",
-      rate, seconds, realtime ? "SCHED_FIFO requested" : "normal scheduling",
+      rate, spin_us, seconds, realtime ? "SCHED_FIFO requested" : "normal scheduling",
       viewer ? ", viewer drawing" : (with_viewer ? ", no display: viewer skipped (" + error + ")" : ""),
       h.percentile_us(0.5), h.percentile_us(0.99), h.percentile_us(0.999), h.max_us(),
       loop.compute_time().percentile_us(0.99), stats.ticks, stats.overruns, stats.patches_taken, frames,
@@ -184,17 +189,21 @@ int main(int argc, char** argv) {
   int steps = 20000;
   double seconds = 10;
   bool skip_contact = false, skip_loop = false, no_viewer = false;
+  double spin_us = 80;
+  std::vector<double> rates{1000, 4000};
   app.add_option("--steps", steps, "Contact queries per run")->capture_default_str();
   app.add_option("--seconds", seconds, "Duration of each loop run")->capture_default_str();
   app.add_flag("--skip-contact", skip_contact, "Only the loop runs");
   app.add_flag("--skip-loop", skip_loop, "Only the contact queries");
   app.add_flag("--no-viewer", no_viewer, "Do not render while the loop runs");
+  app.add_option("--spin-us", spin_us, "Busy-wait before each deadline (the loop's spin_ns)")->capture_default_str();
+  app.add_option("--rates", rates, "Loop rates to run")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   std::cout << fmt::format("machine: {} cores\n", std::thread::hardware_concurrency());
   if (!skip_contact) contact_bench(steps);
   if (!skip_loop) {
     for (const bool rt : {false, true})
-      for (const double rate : {1000.0, 4000.0}) loop_bench(rate, seconds, rt, !no_viewer);
+      for (const double rate : rates) loop_bench(rate, seconds, rt, !no_viewer, spin_us);
   }
   return 0;
 }
