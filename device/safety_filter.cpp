@@ -94,11 +94,13 @@ bool SafetyFilter::read(DeviceState& state) {
   was_homed_ = state.homed;
   if (state.faulted) fault("the device reported a fault");
   if (!state.velocity.allFinite() || state.velocity.norm() > options_.velocity_limit) {
+    // A force-type fault (HAPTICS.md §5.3 rule 10): zero at once, then re-arm by itself
+    // through the gate (small force, and slow again) and the ramp.
     const ArmState s = state_.load(std::memory_order_acquire);
     if (s == ArmState::Ramping || s == ArmState::Armed) {
       ++counters_.velocity_trips;
-      arm_requested_.store(false, std::memory_order_release);
-      state_.store(ArmState::Disarmed, std::memory_order_release);
+      small_ticks_ = 0;
+      state_.store(ArmState::WaitingForSmallForce, std::memory_order_release);
     }
   }
   last_state_ = state;
@@ -136,7 +138,10 @@ void SafetyFilter::write(const ForceCommand& command) {
     }
     if (state == ArmState::WaitingForSmallForce) {
       const bool homed = have_state_ && last_state_.homed;
-      small_ticks_ = (homed && fresh && request.norm() < options_.small_force) ? small_ticks_ + 1 : 0;
+      const bool slow = have_state_ && last_state_.velocity.allFinite() &&
+                        last_state_.velocity.norm() < 0.5 * options_.velocity_limit;
+      small_ticks_ =
+          (homed && fresh && slow && request.norm() < options_.small_force) ? small_ticks_ + 1 : 0;
       if (small_ticks_ >= options_.small_force_ticks) {
         state = ArmState::Ramping;
         ramp_start_ns_ = now;

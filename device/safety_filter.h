@@ -12,7 +12,9 @@
 //!  - the change per write is limited to cap / `slew_fraction_inverse` (a full step takes ten
 //!    ticks, like VRPN's recovery cycles);
 //!  - a stale device state (older than `stale_ns`) gives zero force;
-//!  - homing loss, a speed above `velocity_limit` or a device fault disarm at once;
+//!  - homing loss or a device fault disarm at once (re-arming is the user's); a speed above
+//!    `velocity_limit` cuts the force at once and re-arms by itself once slow again (gate,
+//!    then ramp);
 //!  - every command carries an expiry (`watchdog_ns`): if the loop stalls, the driver's
 //!    output stage drops to zero by itself;
 //!  - zero on open, close and any fault.

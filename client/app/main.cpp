@@ -97,7 +97,8 @@ int main(int argc, char** argv) {
       "device (or a simulated or replayed one), see the hole under the tool highlighted, and press\n"
       "button 1 (space in the viewer) to have the server fill it. Without --session it creates a\n"
       "session and uploads --mesh (default: the bundled sample). Sim device in the viewer: arrows\n"
-      "and W/S move the stylus, space is the button, the mouse orbits, the wheel zooms.\n\n"
+      "and W/S move the stylus, space is the button, F turns forces off and on, the mouse\n"
+      "orbits, the wheel zooms.\n\n"
       "Exit codes: 0 done, 1 device or window problem, 2 usage, 4 server problem."};
   cli.add_option("--server", a.server, "touchmend-server address HOST:PORT")->capture_default_str();
   cli.add_option("--token", a.token, "Bearer token (default: $TOUCHMEND_TOKEN)");
@@ -249,9 +250,14 @@ int main(int argc, char** argv) {
       if (!viewer->should_close() && viewer->input().quit) break;
       if (viewer->should_close()) break;
       if (sim) sim->set_target(sim_home + viewer->input().target_offset, viewer->input().button ? 1u : 0u);
-    } else {
-      std::this_thread::sleep_for(16ms);
+      if (viewer->input().forces_off) safe.disarm();
     }
+    // Forces stay requested (unless the operator turned them off): after a homing loss or a
+    // cleared fault the safety filter's gate re-arms only once the device is homed, at rest
+    // and asked for almost no force, then ramps in.
+    if ((!viewer || !viewer->input().forces_off) && safe.arm_state() == device::ArmState::Disarmed)
+      safe.arm();
+    if (!viewer) std::this_thread::sleep_for(16ms);
     if (a.stats && now - last_stats >= 1s) {
       last_stats = now;
       std::cout << status_line(v, loop, safe) << "\n";

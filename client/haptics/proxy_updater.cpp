@@ -86,22 +86,21 @@ void ProxyUpdater::run() {
     auto& states = loop_.updater_state();
     states.update();
     const ToolState& tool = states.front();
-    const Vec3 at = tool.device_ok ? tool.proxy : patch_centre_;
-    const Vec3 ahead = at + options_.look_ahead_seconds * tool.velocity;
-    // A patch around the predicted position, rebuilt once the tool has used up a third of the
-    // margin. The patch must contain both the proxy and the device position (the haptic loop
-    // holds the proxy still when either leaves it).
-    // (The patch is centred ahead of the motion and grown by that look-ahead: measure the
-    // margin used up against the grown radius, or a steady stroke would rebuild every poll.)
+    // The patch must hold both the proxy and the device position (the haptic loop holds the
+    // proxy still while either is outside it), so it is centred between them, ahead of the
+    // motion, and grown by half their distance plus the look-ahead.
+    const Vec3 proxy = tool.device_ok ? tool.proxy : patch_centre_;
+    const Vec3 device = tool.device_ok ? tool.device_position : patch_centre_;
+    const Vec3 between = 0.5 * (proxy + device);
+    const Vec3 shift = options_.look_ahead_seconds * tool.velocity;
+    // The margin used up is measured against the grown radius, or a steady stroke would
+    // rebuild at every poll.
     const double slack = radius_ / 3 + patch_extra_;
-    const bool moved = (at - patch_centre_).norm() > slack ||
-                       (tool.device_position - patch_centre_).norm() > slack;
+    const bool moved = (proxy - patch_centre_).norm() > slack || (device - patch_centre_).norm() > slack;
     if (!have_patch_ || moved) {
-      // Centred ahead of the motion, grown so the current position stays well inside.
-      if (ahead.allFinite())
-        build_patch(ahead, (ahead - at).norm());
-      else
-        build_patch(at);
+      const Vec3 centre = shift.allFinite() ? Vec3(between + shift) : between;
+      const double extra = std::min(0.5 * (proxy - device).norm() + (centre - between).norm(), 4 * radius_);
+      build_patch(centre.allFinite() ? centre : proxy, extra);
     }
   }
 }

@@ -34,11 +34,15 @@ bool segment_triangle(const Vec3& p, const Vec3& d, const std::array<Vec3, 3>& t
   if (std::abs(det) <= 1e-12 * e1.norm() * e2.norm() * d.norm()) return false;
   const double inv = 1.0 / det;
   const Vec3 tvec = p - tri[0];
+  // A small tolerance on the barycentric bounds: a segment through a shared edge or vertex
+  // must hit at least one of the triangles there, whatever the rounding (no leak between
+  // neighbours); hitting both is harmless (same t).
+  constexpr double kSlack = 1e-9;
   const double u = tvec.dot(pvec) * inv;
-  if (u < 0 || u > 1) return false;
+  if (u < -kSlack || u > 1 + kSlack) return false;
   const Vec3 qvec = tvec.cross(e1);
   const double v = d.dot(qvec) * inv;
-  if (v < 0 || u + v > 1) return false;
+  if (v < -kSlack || u + v > 1 + kSlack) return false;
   t = e2.dot(qvec) * inv;
   return t >= 0 && t <= 1;
 }

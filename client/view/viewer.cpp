@@ -216,6 +216,9 @@ void Viewer::handle_keys() {
   if (key(GLFW_KEY_W)) input_.target_offset.z() -= step;
   if (key(GLFW_KEY_S)) input_.target_offset.z() += step;
   input_.button = key(GLFW_KEY_SPACE);
+  const bool f_down = key(GLFW_KEY_F);
+  if (f_down && !f_was_down_) input_.forces_off = !input_.forces_off;
+  f_was_down_ = f_down;
   input_.quit = key(GLFW_KEY_ESCAPE) || glfwWindowShouldClose(window_);
 }
 

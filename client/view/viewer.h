@@ -49,6 +49,7 @@ struct ViewerOptions {
 struct InputState {
   Vec3 target_offset = Vec3::Zero();  //!< keyboard-driven tool offset, device metres
   bool button = false;                //!< space bar
+  bool forces_off = false;            //!< toggled by F: the operator turned forces off
   bool quit = false;
 };
 
@@ -88,6 +89,7 @@ class Viewer {
   double yaw_ = 0.6, pitch_ = 0.4, zoom_ = 1.0;
   double last_x_ = 0, last_y_ = 0;
   bool dragging_ = false;
+  bool f_was_down_ = false;
   InputState input_;
   std::vector<std::uint8_t> last_frame_;
   int frame_width_ = 0, frame_height_ = 0;

@@ -4,6 +4,7 @@
 // operator's cursor. Plus the touchmend-client binary: devices, bad devices, a viewer frame
 // under Xvfb with the mesh and a highlighted hole in it.
 
+#include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
@@ -13,6 +14,7 @@
 #include <png.h>
 
 #include "client/app/station.h"
+#include "device/simulated_device.h"
 #include "device/trajectory.h"
 #include "tests/integration/server_process.h"
 
@@ -126,6 +128,90 @@ TEST(Station, ReplayPressesOnAHoleTheServerFillsItAndEveryoneAgrees) {
   // The haptic side did its part: ticks, patches, samples acknowledged.
   EXPECT_GT(runtime.loop().stats().ticks, 500u);
   EXPECT_GT(station.samples_sent(), 100u);
+}
+
+TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  app::StationOptions options;
+  options.mesh_bytes = read_file(TOUCHMEND_SAMPLE_MESH);
+  app::Station station(server.connect(), options);
+  ASSERT_TRUE(station.start().is_ok());
+  const app::StationView view = station.view();
+  const Eigen::AlignedBox3d model = bounds_of(station.document());
+  // The simulated hand presses down onto the top of the model (where a ray from above first
+  // meets it).
+  haptics::TriangleSet whole;
+  whole.build(*view.surface);
+  const Vec3 above = model.center() + model.diagonal().norm() * Vec3::UnitY();
+  haptics::SegmentHit top;
+  ASSERT_TRUE(whole.first_hit(above, model.center(), top));
+  const Vec3 spot = top.point;
+  const Vec3 inward = -Vec3::UnitY();
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  device::SimulatedOptions so;
+  so.start = map.to_device(spot - 0.1 * model.diagonal().norm() * inward);
+  device::SimulatedDevice sim(so);
+  sim.set_target(so.start, 0);  // hold outside until the first proxy patch is there
+  device::SafetyFilter safe(sim);
+  ASSERT_TRUE(safe.open().ok);
+  haptics::HapticLoopOptions loop_options;
+  loop_options.workspace = map;
+  loop_options.contact.epsilon = 1e-6 * model.diagonal().norm();
+  app::StationRuntime runtime(station, safe, loop_options);
+  runtime.start();
+  for (int i = 0; i < 400 && runtime.loop().stats().patches_taken == 0; ++i) std::this_thread::sleep_for(10ms);
+  // A hand's pace (the safety filter disarms above 1 m/s): half a second down to the surface.
+  const Vec3 pressed = map.to_device(spot + 0.02 * model.diagonal().norm() * inward);
+  for (int i = 1; i <= 50; ++i) {
+    sim.set_target(so.start + (pressed - so.start) * (i / 50.0), 0);
+    std::this_thread::sleep_for(10ms);
+  }
+  auto& ui = runtime.loop().ui_state();
+  const auto touching = [&] {
+    ui.update();
+    return ui.front().in_contact && ui.front().force.norm() > 0.05;
+  };
+  for (int i = 0; i < 400 && !touching(); ++i) std::this_thread::sleep_for(10ms);
+  ASSERT_TRUE(touching()) << "the stylus never pressed on the surface: proxy " << ui.front().proxy.transpose()
+                          << " device " << ui.front().device_position.transpose() << " spot "
+                          << spot.transpose() << " patches " << runtime.loop().stats().patches_taken << " safety "
+                          << device::to_string(safe.arm_state()) << " velocity trips "
+                          << safe.counters().velocity_trips;
+
+  // The server dies: the loop keeps rendering the last surface, with a safe force.
+  EXPECT_EQ(server.stop(SIGKILL), -SIGKILL);
+  const std::uint64_t ticks_before = runtime.loop().stats().ticks;
+  for (int i = 0; i < 50; ++i) {
+    std::this_thread::sleep_for(10ms);
+    ui.update();
+    EXPECT_TRUE(ui.front().in_contact);
+    EXPECT_TRUE(ui.front().force.allFinite());
+    EXPECT_LE(ui.front().force.norm(), safe.force_cap() + 1e-9);
+  }
+  EXPECT_GT(runtime.loop().stats().ticks, ticks_before + 300);
+  EXPECT_EQ(safe.arm_state(), device::ArmState::Armed);
+
+  // Back: another operator fills a hole; the station reconnects and gets it by replay.
+  ASSERT_TRUE(server.start()) << server.log();
+  net::RepairClient other(server.connect());
+  v1::FillHolesRequest fill;
+  fill.set_session_id(station.session_id());
+  fill.mutable_selection()->mutable_ids()->add_ids(view.holes->front().id);
+  v1::EditResponse edit;
+  ASSERT_TRUE(other.fill_holes(fill, edit).is_ok());
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (station.version() < edit.version() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(20ms);
+  runtime.stop();
+  safe.close();
+  EXPECT_EQ(station.version(), edit.version()) << station.view().status;
+  EXPECT_GE(station.reconnects(), 1u);
+  rpc::MeshDocument server_document;
+  ASSERT_TRUE(other.download_document(station.session_id(), server_document).is_ok());
+  EXPECT_TRUE(station.document() == server_document);
 }
 
 // ---- the binary ----
