@@ -42,7 +42,8 @@ DeviceStatus make_device(const DeviceSpec& spec, const DeviceOptions& options,
       return {};
     case DeviceSpec::Kind::Replay: {
       std::unique_ptr<ReplayDevice> replay;
-      if (DeviceStatus s = ReplayDevice::from_file(spec.file, options.replay, replay); !s.ok) return s;
+      if (DeviceStatus s = ReplayDevice::from_file(spec.file, options.replay, replay); !s.ok)
+        return s;
       out = std::move(replay);
       return {};
     }

@@ -33,7 +33,7 @@ DeviceStatus make_device(const DeviceSpec& spec, const DeviceOptions& options,
                          std::unique_ptr<HapticDevice>& out);
 
 struct DeviceListing {
-  std::string spec;         //!< what to pass to --device
+  std::string spec;  //!< what to pass to --device
   std::string description;
 };
 //! Always the simulated device and the replay device; every Falcon on USB. \p notes gets

@@ -8,10 +8,11 @@
 //! publishes its newest state and consumes the newest command. Nothing throws across this
 //! boundary; failures are reported as DeviceStatus values and last_error().
 
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 #include <cstdint>
 #include <string>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace touchmend::device {
 
@@ -27,9 +28,9 @@ struct DeviceInfo {
   std::string name;  //!< human-readable, with index/serial/file where it helps
   Eigen::AlignedBox3d workspace{Eigen::Vector3d(-0.05, -0.05, -0.05),
                                 Eigen::Vector3d(0.05, 0.05, 0.05)};  //!< metres, device frame
-  double max_force = 3.0;       //!< N, continuous
-  double max_stiffness = 1000;  //!< N/m at the nominal rate
-  double max_damping = 5;       //!< N·s/m
+  double max_force = 3.0;                                            //!< N, continuous
+  double max_stiffness = 1000;                                       //!< N/m at the nominal rate
+  double max_damping = 5;                                            //!< N·s/m
   int position_dof = 3;
   int force_dof = 3;  //!< 0 for a device without actuators (replay)
   int buttons = 1;

@@ -29,15 +29,15 @@
 namespace touchmend::device {
 
 struct SafetyOptions {
-  double force_cap = 0;           //!< N; 0 = the device's max_force
-  double small_force = 0.2;       //!< N, arming gate
-  int small_force_ticks = 3;      //!< consecutive small requests before arming
-  double ramp_seconds = 1.0;      //!< force ramp-in after arming
-  int slew_fraction_inverse = 10; //!< |ΔF| per write <= cap / this
+  double force_cap = 0;                  //!< N; 0 = the device's max_force
+  double small_force = 0.2;              //!< N, arming gate
+  int small_force_ticks = 3;             //!< consecutive small requests before arming
+  double ramp_seconds = 1.0;             //!< force ramp-in after arming
+  int slew_fraction_inverse = 10;        //!< |ΔF| per write <= cap / this
   std::int64_t stale_ns = 2'000'000;     //!< state older than this: zero force
   std::int64_t watchdog_ns = 3'000'000;  //!< a command expires after this
-  double velocity_limit = 1.0;    //!< m/s; above it: zero and disarm
-  int nan_fault_after = 10;       //!< non-finite requests in a row before a fault
+  double velocity_limit = 1.0;           //!< m/s; above it: zero and disarm
+  int nan_fault_after = 10;              //!< non-finite requests in a row before a fault
 };
 
 struct SafetyCounters {

@@ -7,7 +7,8 @@ namespace touchmend::device {
 SimulatedDevice::SimulatedDevice(SimulatedOptions options) : options_(std::move(options)) {
   info_.kind = "sim";
   info_.name = options_.script.empty() ? "simulated stylus" : "simulated stylus (scripted)";
-  info_.workspace = Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  info_.workspace =
+      Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
   info_.max_force = 5.0;
   info_.max_stiffness = 2000;
   info_.max_damping = 10;

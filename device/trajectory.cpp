@@ -13,8 +13,10 @@ namespace touchmend::device {
 namespace {
 
 std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r'))
+    s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
   return s;
 }
 
@@ -129,8 +131,8 @@ std::string format_trajectory(const Trajectory& trajectory) {
   out += "# t_seconds x y z buttons (metres)\n";
   for (const auto& s : trajectory.samples) {
     // Shortest round-trip formatting: a replayed file reproduces the recorded doubles.
-    out += fmt::format("{:.9f} {} {} {} {}\n", s.t, s.position.x(), s.position.y(),
-                       s.position.z(), s.buttons);
+    out += fmt::format("{:.9f} {} {} {} {}\n", s.t, s.position.x(), s.position.y(), s.position.z(),
+                       s.buttons);
   }
   return out;
 }
@@ -248,7 +250,8 @@ bool RecordingDevice::read(DeviceState& state) {
   }
   last_sequence_ = state.sequence;
   if (samples_.size() < capacity_) {
-    samples_.push_back({double(state.timestamp_ns - first_ns_) * 1e-9, state.position, state.buttons});
+    samples_.push_back(
+        {double(state.timestamp_ns - first_ns_) * 1e-9, state.position, state.buttons});
   } else {
     ++dropped_;
   }

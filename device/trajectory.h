@@ -14,8 +14,9 @@
 //! t is seconds from the first sample (non-decreasing), x y z metres in the device frame,
 //! buttons a decimal bit mask. The optional `workspace` line (before the samples) is the
 //! recording device's workspace box, min then max corner, so a replay maps onto the model the
-//! way the recording did; without it the samples' bounding box is used. A reader rejects other versions, non-finite numbers, time going
-//! backwards and more than 50 million samples, naming the line.
+//! way the recording did; without it the samples' bounding box is used. A reader rejects other
+//! versions, non-finite numbers, time going backwards and more than 50 million samples, naming the
+//! line.
 
 #include <filesystem>
 #include <string>

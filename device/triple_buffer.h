@@ -26,8 +26,8 @@ class TripleBuffer {
   //! The slot to fill before publish(); stays the producer's until then.
   T& back() { return slots_[back_]; }
   void publish() {
-    const std::uint8_t old = middle_.exchange(static_cast<std::uint8_t>(back_ | kFresh),
-                                              std::memory_order_acq_rel);
+    const std::uint8_t old =
+        middle_.exchange(static_cast<std::uint8_t>(back_ | kFresh), std::memory_order_acq_rel);
     back_ = old & kIndex;
   }
   void publish(const T& value) {

@@ -71,8 +71,10 @@ view::Scene make_scene(const app::StationView& v, const haptics::ToolState& tool
   scene.highlighted = v.highlighted;
   if (tool.device_ok) {
     scene.cursors.push_back({tool.device_position, {1.0f, 1.0f, 1.0f}, 8});
-    scene.cursors.push_back({tool.proxy, tool.in_contact ? Eigen::Vector3f(0.2f, 1.0f, 0.4f)
-                                                         : Eigen::Vector3f(0.3f, 0.8f, 1.0f), 14});
+    scene.cursors.push_back(
+        {tool.proxy,
+         tool.in_contact ? Eigen::Vector3f(0.2f, 1.0f, 0.4f) : Eigen::Vector3f(0.3f, 0.8f, 1.0f),
+         14});
   }
   for (const auto& c : v.cursors) scene.cursors.push_back({c.position, {1.0f, 0.3f, 1.0f}, 14});
   return scene;
@@ -81,11 +83,14 @@ view::Scene make_scene(const app::StationView& v, const haptics::ToolState& tool
 std::string status_line(const app::StationView& v, const haptics::HapticLoop& loop,
                         const device::SafetyFilter& safe) {
   const haptics::LoopStats s = loop.stats();
-  return fmt::format("session {} v{} | {} holes{} | loop {} ticks, period error p99 {:.0f} us | {} | {}",
-                     v.session_id, v.version, v.holes ? v.holes->size() : 0,
-                     v.highlighted >= 0 ? fmt::format(" (hole {} under the tool)", (*v.holes)[std::size_t(v.highlighted)].id) : "",
-                     s.ticks, loop.period_error().percentile_us(0.99), device::to_string(safe.arm_state()),
-                     v.status);
+  return fmt::format(
+      "session {} v{} | {} holes{} | loop {} ticks, period error p99 {:.0f} us | {} | {}",
+      v.session_id, v.version, v.holes ? v.holes->size() : 0,
+      v.highlighted >= 0
+          ? fmt::format(" (hole {} under the tool)", (*v.holes)[std::size_t(v.highlighted)].id)
+          : "",
+      s.ticks, loop.period_error().percentile_us(0.99), device::to_string(safe.arm_state()),
+      v.status);
 }
 
 }  // namespace
@@ -94,7 +99,8 @@ int main(int argc, char** argv) {
   Args a;
   CLI::App cli{
       "touchmend-client: the haptic station. Feel the mesh of a repair session through a haptic\n"
-      "device (or a simulated or replayed one), see the hole under the tool highlighted, and press\n"
+      "device (or a simulated or replayed one), see the hole under the tool highlighted, and "
+      "press\n"
       "button 1 (space in the viewer) to have the server fill it. Without --session it creates a\n"
       "session and uploads --mesh (default: the bundled sample). Sim device in the viewer: arrows\n"
       "and W/S move the stylus, space is the button, F turns forces off and on, the mouse\n"
@@ -109,26 +115,38 @@ int main(int argc, char** argv) {
   cli.add_option("--device", a.device, "sim | replay:FILE | falcon[:INDEX]")->capture_default_str();
   cli.add_flag("--list-devices", a.list_devices, "List the devices and exit");
   cli.add_flag("--headless", a.headless, "No window (a simulated or replayed device)");
-  cli.add_option("--duration", a.duration, "Stop after this many seconds (0: until the replay ends or Ctrl-C)");
-  cli.add_option("--screenshot", a.screenshot, "Save the last frame as PNG when stopping (works under Xvfb)");
-  cli.add_option("--record", a.record, "Record the device's trajectory to FILE (replay it with --device replay:FILE)");
-  cli.add_option("--rate", a.rate, "Haptic loop rate in Hz (100-4000)")->check(CLI::Range(100.0, 4000.0))->capture_default_str();
-  cli.add_option("--stiffness", a.stiffness, "Contact stiffness, N/m (capped by the device)")->capture_default_str();
-  cli.add_option("--damping", a.damping, "Contact damping, N*s/m (capped by the device)")->capture_default_str();
+  cli.add_option("--duration", a.duration,
+                 "Stop after this many seconds (0: until the replay ends or Ctrl-C)");
+  cli.add_option("--screenshot", a.screenshot,
+                 "Save the last frame as PNG when stopping (works under Xvfb)");
+  cli.add_option("--record", a.record,
+                 "Record the device's trajectory to FILE (replay it with --device replay:FILE)");
+  cli.add_option("--rate", a.rate, "Haptic loop rate in Hz (100-4000)")
+      ->check(CLI::Range(100.0, 4000.0))
+      ->capture_default_str();
+  cli.add_option("--stiffness", a.stiffness, "Contact stiffness, N/m (capped by the device)")
+      ->capture_default_str();
+  cli.add_option("--damping", a.damping, "Contact damping, N*s/m (capped by the device)")
+      ->capture_default_str();
   cli.add_option("--friction", a.friction, "Static friction coefficient")->capture_default_str();
   cli.add_option("--force-cap", a.force_cap, "Force limit in N (0: the device's maximum)");
-  cli.add_flag("--no-realtime", a.no_realtime,
-               "Do not ask for SCHED_FIFO and locked memory for the haptic thread (asked by default; "
-               "refused without the privilege, which the startup line says)");
-  cli.add_option("--falcon-firmware", a.falcon_firmware, "Falcon firmware file to load if the device runs none (never shipped)");
-  cli.add_option("--falcon-gain", a.falcon_gain, "Falcon motor counts per N*m (uncalibrated)")->capture_default_str();
+  cli.add_flag(
+      "--no-realtime", a.no_realtime,
+      "Do not ask for SCHED_FIFO and locked memory for the haptic thread (asked by default; "
+      "refused without the privilege, which the startup line says)");
+  cli.add_option("--falcon-firmware", a.falcon_firmware,
+                 "Falcon firmware file to load if the device runs none (never shipped)");
+  cli.add_option("--falcon-gain", a.falcon_gain, "Falcon motor counts per N*m (uncalibrated)")
+      ->capture_default_str();
   cli.add_flag("--stats", a.stats, "Print the loop statistics every second");
-  cli.add_option("--exit-after-fills", a.exit_after_fills, "Stop after this many fill requests (scripts, tests)");
+  cli.add_option("--exit-after-fills", a.exit_after_fills,
+                 "Stop after this many fill requests (scripts, tests)");
   CLI11_PARSE(cli, argc, argv);
 
   if (a.list_devices) {
     std::string notes;
-    for (const auto& d : device::list_devices(notes)) std::cout << fmt::format("{:<14} {}\n", d.spec, d.description);
+    for (const auto& d : device::list_devices(notes))
+      std::cout << fmt::format("{:<14} {}\n", d.spec, d.description);
     if (!notes.empty()) std::cout << "note: " << notes << "\n";
     return 0;
   }
@@ -174,7 +192,8 @@ int main(int argc, char** argv) {
   Status status;
   auto channel = net::Channel::connect(channel_options, status);
   if (!channel) {
-    std::cerr << "touchmend-client: cannot reach " << a.server << ": " << status.to_string() << "\n";
+    std::cerr << "touchmend-client: cannot reach " << a.server << ": " << status.to_string()
+              << "\n";
     safe.close();
     return 4;
   }
@@ -209,7 +228,8 @@ int main(int argc, char** argv) {
   loop_options.contact.friction = a.friction;
   loop_options.realtime = !a.no_realtime;
   Eigen::AlignedBox3d model;
-  for (const auto& p : station.document().positions) model.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  for (const auto& p : station.document().positions)
+    model.extend(Eigen::Vector3d(p[0], p[1], p[2]));
   loop_options.workspace = haptics::WorkspaceMap::fit(model, raw->info().workspace);
   loop_options.contact.epsilon = 1e-6 * (model.isEmpty() ? 1.0 : model.diagonal().norm());
   app::StationRuntime runtime(station, safe, loop_options);
@@ -249,7 +269,8 @@ int main(int argc, char** argv) {
       viewer->draw(make_scene(v, ui.front()));
       if (!viewer->should_close() && viewer->input().quit) break;
       if (viewer->should_close()) break;
-      if (sim) sim->set_target(sim_home + viewer->input().target_offset, viewer->input().button ? 1u : 0u);
+      if (sim)
+        sim->set_target(sim_home + viewer->input().target_offset, viewer->input().button ? 1u : 0u);
       if (viewer->input().forces_off) safe.disarm();
     }
     // Forces stay requested (unless the operator turned them off): after a homing loss or a
@@ -285,14 +306,18 @@ int main(int argc, char** argv) {
   std::cout << status_line(v, loop, safe) << "\n";
   const haptics::LoopStats s = loop.stats();
   std::cout << fmt::format(
-      "loop: {} ticks at {} Hz; period error p50 {:.0f} / p99 {:.0f} / p99.9 {:.0f} / max {:.0f} us; compute p99 {:.0f} us; "
+      "loop: {} ticks at {} Hz; period error p50 {:.0f} / p99 {:.0f} / p99.9 {:.0f} / max {:.0f} "
+      "us; compute p99 {:.0f} us; "
       "{} overruns; {}\n",
-      s.ticks, a.rate, loop.period_error().percentile_us(0.5), loop.period_error().percentile_us(0.99),
-      loop.period_error().percentile_us(0.999), loop.period_error().max_us(),
-      loop.compute_time().percentile_us(0.99), s.overruns, s.realtime_note);
+      s.ticks, a.rate, loop.period_error().percentile_us(0.5),
+      loop.period_error().percentile_us(0.99), loop.period_error().percentile_us(0.999),
+      loop.period_error().max_us(), loop.compute_time().percentile_us(0.99), s.overruns,
+      s.realtime_note);
   if (recorder) {
-    if (recorder->recorded() == 0) std::cerr << "touchmend-client: nothing was recorded\n";
-    else std::cout << "recorded " << recorder->recorded() << " samples to " << a.record << "\n";
+    if (recorder->recorded() == 0)
+      std::cerr << "touchmend-client: nothing was recorded\n";
+    else
+      std::cout << "recorded " << recorder->recorded() << " samples to " << a.record << "\n";
   }
   return code;
 }

@@ -59,7 +59,8 @@ std::vector<HoleLoop> find_boundary_loops(const haptics::SurfaceMesh& mesh) {
     loop.centroid /= double(loop.vertices.size());
     loops.push_back(std::move(loop));
   }
-  std::sort(loops.begin(), loops.end(), [](const HoleLoop& a, const HoleLoop& b) { return a.id < b.id; });
+  std::sort(loops.begin(), loops.end(),
+            [](const HoleLoop& a, const HoleLoop& b) { return a.id < b.id; });
   return loops;
 }
 
@@ -79,9 +80,13 @@ std::shared_ptr<haptics::SurfaceMesh> surface_from_document(const rpc::MeshDocum
 Station::Station(std::shared_ptr<net::Channel> channel, StationOptions options)
     : channel_(std::move(channel)), client_(channel_), options_(std::move(options)) {}
 
-Station::~Station() { stop(); }
+Station::~Station() {
+  stop();
+}
 
-std::size_t Station::reconnects() const { return replica_ ? replica_->reconnects() : 0; }
+std::size_t Station::reconnects() const {
+  return replica_ ? replica_->reconnects() : 0;
+}
 
 void Station::set_status(std::string text) {
   std::lock_guard lock(mutex_);
@@ -229,9 +234,10 @@ void Station::request_fill(const Vec3& tool) {
   }
   std::string text = "fill:";
   for (const auto& h : response.report().holes())
-    text += fmt::format(" hole {} {}", h.hole_id(),
-                        h.filled() ? fmt::format("filled ({} faces, {})", h.faces_added(), h.shape())
-                                   : "left open: " + h.reason());
+    text +=
+        fmt::format(" hole {} {}", h.hole_id(),
+                    h.filled() ? fmt::format("filled ({} faces, {})", h.faces_added(), h.shape())
+                               : "left open: " + h.reason());
   set_status(text);
 }
 
@@ -313,10 +319,14 @@ StationView Station::view() const {
 
 StationRuntime::StationRuntime(Station& station, device::SafetyFilter& device,
                                haptics::HapticLoopOptions options)
-    : station_(station), device_(device), loop_(device, patches_, std::move(options)),
+    : station_(station),
+      device_(device),
+      loop_(device, patches_, std::move(options)),
       updater_(loop_, patches_) {}
 
-StationRuntime::~StationRuntime() { stop(); }
+StationRuntime::~StationRuntime() {
+  stop();
+}
 
 void StationRuntime::start() {
   if (started_) return;

@@ -133,7 +133,8 @@ class Station {
 //! (forces only once everything feeds the loop; zero before the device closes).
 class StationRuntime {
  public:
-  StationRuntime(Station& station, device::SafetyFilter& device, haptics::HapticLoopOptions options);
+  StationRuntime(Station& station, device::SafetyFilter& device,
+                 haptics::HapticLoopOptions options);
   ~StationRuntime();
   //! Starts the proxy updater, the haptic loop and the network thread, then arms the device.
   void start();

@@ -1,7 +1,8 @@
 #include "client/haptics/god_object.h"
 
-#include <Eigen/LU>
 #include <cmath>
+
+#include <Eigen/LU>
 
 namespace touchmend::haptics {
 namespace {

@@ -29,7 +29,9 @@ void sleep_until_ns(std::int64_t t) {
 
 }  // namespace
 
-bool on_haptic_thread() { return t_haptic_thread; }
+bool on_haptic_thread() {
+  return t_haptic_thread;
+}
 
 WorkspaceMap WorkspaceMap::fit(const Eigen::AlignedBox3d& model, const Eigen::AlignedBox3d& device,
                                double margin) {
@@ -81,7 +83,9 @@ HapticLoop::HapticLoop(device::SafetyFilter& device, ProxyPatchExchange& patches
   damping_ = g.damping;
 }
 
-HapticLoop::~HapticLoop() { stop(); }
+HapticLoop::~HapticLoop() {
+  stop();
+}
 
 void HapticLoop::start() {
   if (running_.exchange(true)) return;
@@ -206,7 +210,8 @@ void HapticLoop::step(std::int64_t now_ns) {
     contact.proxy = god_.proxy();
   }
   if (blend_left_ > 0) {
-    const double u = double(options_.blend_ticks - blend_left_ + 1) / double(options_.blend_ticks + 1);
+    const double u =
+        double(options_.blend_ticks - blend_left_ + 1) / double(options_.blend_ticks + 1);
     force = blend_from_ + u * (force - blend_from_);
     --blend_left_;
   }

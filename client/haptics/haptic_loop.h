@@ -113,9 +113,9 @@ class Histogram {
 };
 
 struct HapticLoopOptions {
-  double rate_hz = 1000;        //!< 100-4000
-  double stiffness = 800;       //!< N/m in device space (capped by the device's spec)
-  double damping = 2;           //!< N·s/m, applied in contact
+  double rate_hz = 1000;   //!< 100-4000
+  double stiffness = 800;  //!< N/m in device space (capped by the device's spec)
+  double damping = 2;      //!< N·s/m, applied in contact
   ContactOptions contact;
   WorkspaceMap workspace;
   int blend_ticks = 10;
@@ -126,11 +126,11 @@ struct HapticLoopOptions {
 
 struct LoopStats {
   std::uint64_t ticks = 0;
-  std::uint64_t overruns = 0;     //!< deadlines missed by more than a period
+  std::uint64_t overruns = 0;  //!< deadlines missed by more than a period
   std::uint64_t no_device_state = 0;
   std::uint64_t patches_taken = 0;
   std::uint64_t samples_dropped = 0;
-  bool realtime = false;          //!< SCHED_FIFO granted
+  bool realtime = false;  //!< SCHED_FIFO granted
   std::string realtime_note;
 };
 

@@ -8,7 +8,9 @@ ProxyUpdater::ProxyUpdater(HapticLoop& loop, ProxyPatchExchange& patches,
                            ProxyUpdaterOptions options)
     : loop_(loop), patches_(patches), options_(options) {}
 
-ProxyUpdater::~ProxyUpdater() { stop(); }
+ProxyUpdater::~ProxyUpdater() {
+  stop();
+}
 
 void ProxyUpdater::set_surface(std::shared_ptr<const SurfaceMesh> surface) {
   {
@@ -96,10 +98,12 @@ void ProxyUpdater::run() {
     // The margin used up is measured against the grown radius, or a steady stroke would
     // rebuild at every poll.
     const double slack = radius_ / 3 + patch_extra_;
-    const bool moved = (proxy - patch_centre_).norm() > slack || (device - patch_centre_).norm() > slack;
+    const bool moved =
+        (proxy - patch_centre_).norm() > slack || (device - patch_centre_).norm() > slack;
     if (!have_patch_ || moved) {
       const Vec3 centre = shift.allFinite() ? Vec3(between + shift) : between;
-      const double extra = std::min(0.5 * (proxy - device).norm() + (centre - between).norm(), 4 * radius_);
+      const double extra =
+          std::min(0.5 * (proxy - device).norm() + (centre - between).norm(), 4 * radius_);
       build_patch(centre.allFinite() ? centre : proxy, extra);
     }
   }

@@ -17,7 +17,7 @@
 namespace touchmend::haptics {
 
 struct ProxyUpdaterOptions {
-  double radius = 0;               //!< model units; 0 = 8% of the mesh's bounding diagonal
+  double radius = 0;  //!< model units; 0 = 8% of the mesh's bounding diagonal
   double look_ahead_seconds = 0.1;
   int poll_ms = 2;
 };

@@ -149,8 +149,9 @@ std::uint32_t TriangleSet::build_node(std::uint32_t begin, std::uint32_t end,
   int axis = 0;
   centre_box.diagonal().maxCoeff(&axis);
   const std::uint32_t mid = begin + (end - begin) / 2;
-  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
-                   [&](std::uint32_t a, std::uint32_t b) { return centroids[a][axis] < centroids[b][axis]; });
+  std::nth_element(
+      order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
+      [&](std::uint32_t a, std::uint32_t b) { return centroids[a][axis] < centroids[b][axis]; });
   build_node(begin, mid, centroids);
   const std::uint32_t right = build_node(mid, end, centroids);
   nodes_[index].first = right;
@@ -184,8 +185,8 @@ bool TriangleSet::first_hit(const Vec3& a, const Vec3& b, SegmentHit& hit) const
     }
     const std::uint32_t self = static_cast<std::uint32_t>(&node - nodes_.data());
     if (top + 2 > kStackSize) return false;  // cannot happen for median-split trees
-    stack[top++] = node.first;  // right
-    stack[top++] = self + 1;    // left first
+    stack[top++] = node.first;               // right
+    stack[top++] = self + 1;                 // left first
   }
   if (!std::isfinite(best)) return false;
   hit.point = a + hit.t * d;

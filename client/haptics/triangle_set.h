@@ -11,12 +11,13 @@
 //! and never allocate (HAPTICS.md §6.2: CHAI3D's per-query std::vector is what to avoid).
 //! build() allocates; it runs on the proxy-update thread, never on the haptic thread.
 
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace touchmend::haptics {
 
@@ -32,7 +33,7 @@ struct SurfaceMesh {
 };
 
 struct SegmentHit {
-  double t = 0;         //!< along the segment, in [0, 1]
+  double t = 0;  //!< along the segment, in [0, 1]
   std::uint32_t triangle = 0;
   Vec3 point = Vec3::Zero();
 };

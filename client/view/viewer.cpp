@@ -1,16 +1,19 @@
 #include "client/view/viewer.h"
 
+// GLFW's header brings in GL/gl.h, which glext.h needs first.
+// clang-format off
 #define GL_GLEXT_PROTOTYPES 1
 #include <GLFW/glfw3.h>
 #include <GL/glext.h>
-#include <png.h>
-
-#include <Eigen/Geometry>
+// clang-format on
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <numbers>
+#include <png.h>
 #include <unistd.h>
+
+#include <Eigen/Geometry>
 
 namespace touchmend::view {
 namespace {
@@ -106,7 +109,8 @@ Viewer::~Viewer() {
 bool Viewer::open(std::string& error) {
   glfwSetErrorCallback([](int, const char*) {});
   if (!glfwInit()) {
-    error = "cannot open a window: no display (set DISPLAY, or run under xvfb-run, or use --headless)";
+    error =
+        "cannot open a window: no display (set DISPLAY, or run under xvfb-run, or use --headless)";
     return false;
   }
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
@@ -114,7 +118,8 @@ bool Viewer::open(std::string& error) {
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
   glfwWindowHint(GLFW_VISIBLE, options_.visible ? GLFW_TRUE : GLFW_FALSE);
-  window_ = glfwCreateWindow(options_.width, options_.height, options_.title.c_str(), nullptr, nullptr);
+  window_ =
+      glfwCreateWindow(options_.width, options_.height, options_.title.c_str(), nullptr, nullptr);
   if (!window_) {
     error = "cannot create an OpenGL 3.3 core window";
     glfwTerminate();
@@ -153,7 +158,9 @@ bool Viewer::open(std::string& error) {
   return true;
 }
 
-bool Viewer::should_close() const { return window_ && glfwWindowShouldClose(window_); }
+bool Viewer::should_close() const {
+  return window_ && glfwWindowShouldClose(window_);
+}
 
 void Viewer::upload_surface(const haptics::SurfaceMesh& surface) {
   // Per-vertex normals (area-weighted) and positions, interleaved, as floats relative to the
@@ -182,13 +189,16 @@ void Viewer::upload_surface(const haptics::SurfaceMesh& surface) {
   index_count_ = indices.size();
   glBindVertexArray(vao_);
   glBindBuffer(GL_ARRAY_BUFFER, vbo_);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)), data.data(), GL_STATIC_DRAW);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)), data.data(),
+               GL_STATIC_DRAW);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo_);
-  glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)),
-               indices.data(), GL_STATIC_DRAW);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER,
+               static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)), indices.data(),
+               GL_STATIC_DRAW);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
   glEnableVertexAttribArray(0);
-  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                        reinterpret_cast<void*>(3 * sizeof(float)));
   glEnableVertexAttribArray(1);
   uploaded_version_ = surface.version;
   uploaded_surface_ = &surface;
@@ -225,14 +235,16 @@ void Viewer::handle_keys() {
 void Viewer::draw(const Scene& scene) {
   if (!window_) return;
   glfwMakeContextCurrent(window_);
-  if (scene.surface && (scene.surface.get() != uploaded_surface_ || scene.surface->version != uploaded_version_))
+  if (scene.surface &&
+      (scene.surface.get() != uploaded_surface_ || scene.surface->version != uploaded_version_))
     upload_surface(*scene.surface);
   int width = 0, height = 0;
   glfwGetFramebufferSize(window_, &width, &height);
   glViewport(0, 0, width, height);
   glClearColor(0.08f, 0.09f, 0.11f, 1.0f);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  if (!scene.status.empty()) glfwSetWindowTitle(window_, (options_.title + " — " + scene.status).c_str());
+  if (!scene.status.empty())
+    glfwSetWindowTitle(window_, (options_.title + " — " + scene.status).c_str());
   if (!scene.surface || bounds_.isEmpty()) {
     glfwSwapBuffers(window_);
     glfwPollEvents();
@@ -270,7 +282,8 @@ void Viewer::draw(const Scene& scene) {
   glBindBuffer(GL_ARRAY_BUFFER, line_vbo_);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
   glEnableVertexAttribArray(0);
-  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                        reinterpret_cast<void*>(3 * sizeof(float)));
   glEnableVertexAttribArray(1);
   std::vector<float> buffer;
   auto push = [&](const Vec3& p) {
@@ -285,7 +298,8 @@ void Viewer::draw(const Scene& scene) {
       push(scene.surface->positions[loop[i]]);
       push(scene.surface->positions[loop[(i + 1) % loop.size()]]);
     }
-    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(buffer.size() * sizeof(float)), buffer.data(), GL_STREAM_DRAW);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(buffer.size() * sizeof(float)),
+                 buffer.data(), GL_STREAM_DRAW);
     if (highlighted) {
       glUniform3f(colour, 1.0f, 0.85f, 0.0f);  // the hole under the tool
       glUniform1f(point_size, 7.0f);
@@ -299,7 +313,8 @@ void Viewer::draw(const Scene& scene) {
   for (const Cursor& c : scene.cursors) {
     buffer.clear();
     push(c.position);
-    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(buffer.size() * sizeof(float)), buffer.data(), GL_STREAM_DRAW);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(buffer.size() * sizeof(float)),
+                 buffer.data(), GL_STREAM_DRAW);
     glUniform3f(colour, c.colour.x(), c.colour.y(), c.colour.z());
     glUniform1f(point_size, c.size_px);
     glDrawArrays(GL_POINTS, 0, 1);

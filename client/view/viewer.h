@@ -7,11 +7,12 @@
 //! bar). Screenshots are PNG, written atomically. Under Xvfb (Mesa llvmpipe) the same code
 //! draws without a display, which is how the tests check the pixels.
 
-#include <Eigen/Core>
 #include <functional>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "client/haptics/triangle_set.h"
 

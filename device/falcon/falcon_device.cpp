@@ -18,8 +18,8 @@ FalconDevice::FalconDevice(FalconOptions options, std::unique_ptr<Transport> tra
   info_.name = fmt::format("Novint Falcon #{}", options_.index);
   // Device frame: the kinematic frame, centred on the workspace (HAPTICS.md §2.10 uses
   // z ≈ 0.095–0.170 m; the centre is near z = 0.12).
-  info_.workspace = Eigen::AlignedBox3d(Eigen::Vector3d(-0.05, -0.05, 0.07),
-                                        Eigen::Vector3d(0.05, 0.05, 0.175));
+  info_.workspace =
+      Eigen::AlignedBox3d(Eigen::Vector3d(-0.05, -0.05, 0.07), Eigen::Vector3d(0.05, 0.05, 0.175));
   info_.max_force = options_.max_force;
   info_.max_stiffness = 3000;  // CHAI3D's spec table at 1 kHz
   info_.max_damping = 20;
@@ -28,7 +28,9 @@ FalconDevice::FalconDevice(FalconOptions options, std::unique_ptr<Transport> tra
   info_.nominal_rate_hz = 1000;
 }
 
-FalconDevice::~FalconDevice() { close(); }
+FalconDevice::~FalconDevice() {
+  close();
+}
 
 void FalconDevice::set_error(const std::string& message) {
   std::lock_guard lock(error_mutex_);
@@ -61,7 +63,8 @@ DeviceStatus FalconDevice::open() {
           "installation (touchmend does not ship it)");
     }
     std::ifstream in(options_.firmware_file, std::ios::binary);
-    if (!in) return DeviceStatus::failure("cannot read the firmware file " + options_.firmware_file);
+    if (!in)
+      return DeviceStatus::failure("cannot read the firmware file " + options_.firmware_file);
     const std::vector<std::uint8_t> image{std::istreambuf_iterator<char>(in), {}};
     if (image.empty() || image.size() > 64 * 1024)
       return DeviceStatus::failure(fmt::format("{}: {} bytes is not a Falcon firmware image",
@@ -97,7 +100,9 @@ bool FalconDevice::read(DeviceState& state) {
   return true;
 }
 
-void FalconDevice::write(const ForceCommand& command) { commands_.publish(command); }
+void FalconDevice::write(const ForceCommand& command) {
+  commands_.publish(command);
+}
 
 void FalconDevice::io_loop() {
   ReportStream stream;
@@ -120,10 +125,12 @@ void FalconDevice::io_loop() {
     Command out;
     if (force_on) {
       std::array<std::int16_t, 3> motors{};
-      if (motor_commands(geometry_, position, command.force, options_.gain, motors)) out.motors = motors;
+      if (motor_commands(geometry_, position, command.force, options_.gain, motors))
+        out.motors = motors;
     }
     const bool idle = out.motors == std::array<std::int16_t, 3>{0, 0, 0};
-    out.flags = static_cast<std::uint8_t>(homed ? (idle ? kLedBlue : kLedGreen) : kHoming | kLedRed);
+    out.flags =
+        static_cast<std::uint8_t>(homed ? (idle ? kLedBlue : kLedGreen) : kHoming | kLedRed);
     if (DeviceStatus s = transport_->bulk_write(encode_command(out)); !s.ok) {
       set_error(s.message);
       faulted_.store(true, std::memory_order_release);

@@ -67,7 +67,7 @@ class FalconDevice final : public HapticDevice {
   std::atomic<std::uint64_t> dropped_bytes_{0};
   TripleBuffer<DeviceState> states_;
   TripleBuffer<ForceCommand> commands_;
-  bool have_state_ = false;  // consumer side
+  bool have_state_ = false;         // consumer side
   mutable std::mutex error_mutex_;  // errors are set by the I/O thread, read by the UI
   std::string error_;
 };

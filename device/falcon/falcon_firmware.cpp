@@ -11,7 +11,8 @@
 namespace touchmend::device::falcon {
 namespace {
 
-DeviceStatus controls(Transport& t, std::initializer_list<std::pair<FtdiRequest, std::uint16_t>> list) {
+DeviceStatus controls(Transport& t,
+                      std::initializer_list<std::pair<FtdiRequest, std::uint16_t>> list) {
   for (const auto& [request, value] : list) {
     if (DeviceStatus s = t.control(request, value); !s.ok) return s;
   }
@@ -61,8 +62,8 @@ DeviceStatus set_firmware_mode(Transport& t) {
     return DeviceStatus::failure(fmt::format(
         "the Falcon did not answer the firmware-mode handshake in {} tries (replug it and retry)",
         kHandshakeTries));
-  if (DeviceStatus s = controls(t, {{FtdiRequest::ModemControl, 0x0100},
-                                    {FtdiRequest::BaudDivisor, 0x0015}});
+  if (DeviceStatus s =
+          controls(t, {{FtdiRequest::ModemControl, 0x0100}, {FtdiRequest::BaudDivisor, 0x0015}});
       !s.ok)
     return s;
   static constexpr std::array<std::uint8_t, 1> kLoader{0x41};
@@ -91,8 +92,8 @@ DeviceStatus load_firmware(Transport& t, std::span<const std::uint8_t> firmware,
       if (DeviceStatus s = t.bulk_read(buffer, n, 1000); !s.ok) return s;
       if (n <= 2) {
         if (++idle > 20)
-          return DeviceStatus::failure(fmt::format(
-              "firmware upload stalled at byte {} of {}", offset + echo.size(), firmware.size()));
+          return DeviceStatus::failure(fmt::format("firmware upload stalled at byte {} of {}",
+                                                   offset + echo.size(), firmware.size()));
         continue;
       }
       idle = 0;

@@ -1,11 +1,12 @@
 #include "device/falcon/falcon_kinematics.h"
 
-#include "device/falcon/falcon_protocol.h"
-
-#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+
+#include <Eigen/LU>
+
+#include "device/falcon/falcon_protocol.h"
 
 namespace touchmend::device::falcon {
 namespace {
@@ -61,7 +62,8 @@ LegSolution solve_leg(const Geometry& g, const Eigen::Vector3d& P) {
 Angles angles_from_encoders(const Geometry& g, const std::array<std::int16_t, 3>& encoders) {
   Angles a;
   for (int i = 0; i < 3; ++i)
-    a[i] = (encoders[static_cast<std::size_t>(i)] * g.encoder_deg_per_count + g.theta_offset_deg) * kDeg;
+    a[i] = (encoders[static_cast<std::size_t>(i)] * g.encoder_deg_per_count + g.theta_offset_deg) *
+           kDeg;
   return a;
 }
 
@@ -88,9 +90,8 @@ bool angle_jacobian(const Geometry& g, const Eigen::Vector3d& position, Eigen::M
     const double ct = std::cos(s.theta), st = std::sin(s.theta);
     const double dG_dtheta = 2 * g.a * (X * st - P.z() * ct);
     if (std::abs(dG_dtheta) < 1e-12) return false;  // singular pose
-    const Eigen::RowVector3d dG_dP(2 * (X - g.a * ct),
-                                   2 * s.radius * (P.y() + g.f) / (g.b * s.sin3),
-                                   2 * (P.z() - g.a * st));
+    const Eigen::RowVector3d dG_dP(
+        2 * (X - g.a * ct), 2 * s.radius * (P.y() + g.f) / (g.b * s.sin3), 2 * (P.z() - g.a * st));
     d_angles.row(i) = -(dG_dP / dG_dtheta) * leg_rotation(g, i);
   }
   return true;
@@ -134,8 +135,9 @@ ForwardResult forward_kinematics(const Geometry& g, const Angles& angles,
   return out;
 }
 
-bool motor_commands(const Geometry& g, const Eigen::Vector3d& position, const Eigen::Vector3d& force,
-                    double gain, std::array<std::int16_t, 3>& commands, bool* scaled) {
+bool motor_commands(const Geometry& g, const Eigen::Vector3d& position,
+                    const Eigen::Vector3d& force, double gain,
+                    std::array<std::int16_t, 3>& commands, bool* scaled) {
   commands = {0, 0, 0};
   if (scaled) *scaled = false;
   if (!force.allFinite() || !position.allFinite()) return false;

@@ -14,21 +14,22 @@
 //! Jacobian of the motor angles with respect to the position follows by implicit
 //! differentiation of the same equation; torques are Jᵀ·F with J = (∂θ/∂p)⁻¹.
 
-#include <Eigen/Core>
 #include <array>
 #include <cstdint>
+
+#include <Eigen/Core>
 
 namespace touchmend::device::falcon {
 
 struct Geometry {
-  double a = 0.060;       //!< leg base to knee
-  double b = 0.1025;      //!< parallelogram side
-  double c = 0.01443;     //!< shin joint to effector centre, u
-  double d = 0.01125;     //!< shin to effector joint
-  double e = 0.01125;     //!< knee to shin joint
-  double f = -0.025;      //!< shin joint to effector centre, v
-  double r = 0.0400;      //!< frame origin to leg base, u
-  double s = -0.02309;    //!< frame origin to leg base, v
+  double a = 0.060;                                     //!< leg base to knee
+  double b = 0.1025;                                    //!< parallelogram side
+  double c = 0.01443;                                   //!< shin joint to effector centre, u
+  double d = 0.01125;                                   //!< shin to effector joint
+  double e = 0.01125;                                   //!< knee to shin joint
+  double f = -0.025;                                    //!< shin joint to effector centre, v
+  double r = 0.0400;                                    //!< frame origin to leg base, u
+  double s = -0.02309;                                  //!< frame origin to leg base, v
   std::array<double, 3> phi_deg{105.0, -15.0, -135.0};  //!< leg angles about the device axis
   double encoder_deg_per_count = 0.01425 * 360.0 / (320.0 * 4.0 * 0.110);  //!< ≈ 0.036435°
   double theta_offset_deg = 35.0;                                          //!< θ₁ at count 0
@@ -62,7 +63,8 @@ ForwardResult forward_kinematics(const Geometry& g, const Angles& angles,
 //! Force (N, device frame) → motor commands: torques τ = Jᵀ·F, times −gain counts per N·m,
 //! then scaled together so none exceeds ±4095 (the force direction is kept). The gain is
 //! uncalibrated (HAPTICS.md §2.10: published values disagree ~5x): keep caps low.
-bool motor_commands(const Geometry& g, const Eigen::Vector3d& position, const Eigen::Vector3d& force,
-                    double gain, std::array<std::int16_t, 3>& commands, bool* scaled = nullptr);
+bool motor_commands(const Geometry& g, const Eigen::Vector3d& position,
+                    const Eigen::Vector3d& force, double gain,
+                    std::array<std::int16_t, 3>& commands, bool* scaled = nullptr);
 
 }  // namespace touchmend::device::falcon

@@ -66,7 +66,8 @@ Packet encode_report(const Report& report) {
   Packet p{};
   p[0] = kStart;
   for (std::size_t i = 0; i < 3; ++i) put_value(p, 1 + 4 * i, report.encoders[i]);
-  p[13] = static_cast<std::uint8_t>(kNibbleBase + ((report.homed & 7) << 4) + (report.buttons & 0xF));
+  p[13] =
+      static_cast<std::uint8_t>(kNibbleBase + ((report.homed & 7) << 4) + (report.buttons & 0xF));
   p[14] = kNibbleBase;
   p[15] = kEnd;
   return p;

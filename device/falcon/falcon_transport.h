@@ -13,8 +13,8 @@ namespace touchmend::device::falcon {
 
 //! FTDI vendor requests (bmRequestType 0x40, wIndex 0, no data).
 enum class FtdiRequest : std::uint8_t {
-  Reset = 0,          //!< wValue 1: purge RX, 2: purge TX
-  ModemControl = 1,   //!< RTS/DTR
+  Reset = 0,         //!< wValue 1: purge RX, 2: purge TX
+  ModemControl = 1,  //!< RTS/DTR
   FlowControl = 2,
   BaudDivisor = 3,
   LineProperties = 4,

@@ -114,7 +114,8 @@ DeviceStatus LibusbTransport::open(int index, std::unique_ptr<LibusbTransport>& 
   }
   libusb_set_auto_detach_kernel_driver(t->handle_, 1);  // harmless when none is bound
   if (rc = libusb_claim_interface(t->handle_, 0); rc != 0)
-    return DeviceStatus::failure("cannot claim the Falcon's interface: " + describe_libusb_error(rc));
+    return DeviceStatus::failure("cannot claim the Falcon's interface: " +
+                                 describe_libusb_error(rc));
   out = std::move(t);
   return {};
 }

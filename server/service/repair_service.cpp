@@ -612,8 +612,7 @@ void RepairService::interact(const CallPtr& call) {
           *state->presence.mutable_tool_position() = sample->position();
           // Other operators see the tool at up to 30 Hz; the haptic loop itself is local.
           const auto now = std::chrono::steady_clock::now();
-          if (now - state->last_presence >= std::chrono::milliseconds(33) ||
-              sample->stroke_end()) {
+          if (now - state->last_presence >= std::chrono::milliseconds(33) || sample->stroke_end()) {
             state->last_presence = now;
             session->publish_presence(state->presence);
           }

@@ -1,8 +1,7 @@
 #include "server/service/session_geometry.h"
 
-#include <unordered_map>
-
 #include <algorithm>
+#include <unordered_map>
 
 #include "server/geometry/metrics.h"
 

@@ -27,7 +27,6 @@
 #include "tests/support/allocation_probe.h"
 #include "tests/support/haptic_meshes.h"
 
-
 using namespace touchmend;
 using haptics::Vec3;
 using Clock = std::chrono::steady_clock;
@@ -40,17 +39,19 @@ haptics::SurfaceMesh bumpy_sphere(double r, int around, int rings) {
 
 std::string distribution(std::vector<double> v, const char* unit) {
   std::sort(v.begin(), v.end());
-  auto at = [&](double q) { return v[std::min(v.size() - 1, std::size_t(q * double(v.size() - 1) + 0.5))]; };
-  return fmt::format("n={} p50={:.2f} p99={:.2f} p99.9={:.2f} max={:.2f} {}", v.size(), at(0.5), at(0.99),
-                     at(0.999), v.back(), unit);
+  auto at = [&](double q) {
+    return v[std::min(v.size() - 1, std::size_t(q * double(v.size() - 1) + 0.5))];
+  };
+  return fmt::format("n={} p50={:.2f} p99={:.2f} p99.9={:.2f} max={:.2f} {}", v.size(), at(0.5),
+                     at(0.99), at(0.999), v.back(), unit);
 }
 
 //! Slides the goal along a great circle pressed 0.3 mm into the surface (device-scale
 //! motion: ~0.1 mm per tick), timing every god-object update.
 //! \p swing: 0 for a path along the great circle; else the angle swings back and forth by
 //! this much (to stay inside a local patch).
-std::vector<double> time_contact(const haptics::TriangleSet& set, int steps, double radius, std::uint64_t& tests,
-                                 double swing = 0) {
+std::vector<double> time_contact(const haptics::TriangleSet& set, int steps, double radius,
+                                 std::uint64_t& tests, double swing = 0) {
   haptics::GodObject god;
   const Vec3 axis = Vec3(0.3, 1, 0.2).normalized();
   const Vec3 start = Vec3(1, 0, 0).cross(axis).normalized();
@@ -85,8 +86,9 @@ void contact_bench(int steps) {
   std::cout << fmt::format("whole mesh: {} triangles, BVH build {:.2f} s\n", whole.size(), build_s);
   std::uint64_t tests = 0;
   const auto whole_us = time_contact(whole, steps, r, tests);
-  std::cout << fmt::format("contact query, whole 1M-triangle mesh: {} (triangle tests/query {:.1f})\n",
-                           distribution(whole_us, "us"), double(tests) / steps);
+  std::cout << fmt::format(
+      "contact query, whole 1M-triangle mesh: {} (triangle tests/query {:.1f})\n",
+      distribution(whole_us, "us"), double(tests) / steps);
   // A local patch of ~20k triangles around the path's start (what the proxy-update thread cuts).
   const Vec3 axis = Vec3(0.3, 1, 0.2).normalized();
   const Vec3 start = Vec3(1, 0, 0).cross(axis).normalized() * r;
@@ -105,8 +107,10 @@ void contact_bench(int steps) {
   const int patch_steps = steps;
   const auto patch_us = time_contact(patch, patch_steps, r, tests, 0.7 * radius / r);
   std::cout << fmt::format(
-      "contact query, local patch of {} triangles (radius {:.1f} mm, build {:.1f} ms): {} (triangle tests/query {:.1f})\n",
-      patch.size(), radius * 1000, patch_ms, distribution(patch_us, "us"), double(tests) / patch_steps);
+      "contact query, local patch of {} triangles (radius {:.1f} mm, build {:.1f} ms): {} "
+      "(triangle tests/query {:.1f})\n",
+      patch.size(), radius * 1000, patch_ms, distribution(patch_us, "us"),
+      double(tests) / patch_steps);
 }
 
 void loop_bench(double rate, double seconds, bool realtime, bool with_viewer, double spin_us) {
@@ -122,7 +126,8 @@ void loop_bench(double rate, double seconds, bool realtime, bool with_viewer, do
   lo.workspace.scale = 1.0;
   haptics::HapticLoop loop(safe, patches, lo);
   haptics::ProxyUpdater updater(loop, patches);
-  auto mesh = std::make_shared<haptics::SurfaceMesh>(bumpy_sphere(0.05, 400, 201));  // 160k triangles
+  auto mesh =
+      std::make_shared<haptics::SurfaceMesh>(bumpy_sphere(0.05, 400, 201));  // 160k triangles
   mesh->version = 1;
   updater.set_surface(mesh);
   updater.start();
@@ -173,13 +178,15 @@ void loop_bench(double rate, double seconds, bool realtime, bool with_viewer, do
   const auto& h = loop.period_error();
   const auto stats = loop.stats();
   std::cout << fmt::format(
-      "loop {:.0f} Hz, spin {:.0f} us, {:.0f} s, {}{}: period error p50={:.0f} p99={:.0f} p99.9={:.0f} max={:.0f} us | compute p99={:.0f} us | "
+      "loop {:.0f} Hz, spin {:.0f} us, {:.0f} s, {}{}: period error p50={:.0f} p99={:.0f} "
+      "p99.9={:.0f} max={:.0f} us | compute p99={:.0f} us | "
       "{} ticks, {} overruns, {} patches, {} viewer frames, haptic-thread allocations: {} | {}\n",
       rate, spin_us, seconds, realtime ? "SCHED_FIFO requested" : "normal scheduling",
-      viewer ? ", viewer drawing" : (with_viewer ? ", no display: viewer skipped (" + error + ")" : ""),
+      viewer ? ", viewer drawing"
+             : (with_viewer ? ", no display: viewer skipped (" + error + ")" : ""),
       h.percentile_us(0.5), h.percentile_us(0.99), h.percentile_us(0.999), h.max_us(),
-      loop.compute_time().percentile_us(0.99), stats.ticks, stats.overruns, stats.patches_taken, frames,
-      g_haptic_allocations.load(), stats.realtime_note);
+      loop.compute_time().percentile_us(0.99), stats.ticks, stats.overruns, stats.patches_taken,
+      frames, g_haptic_allocations.load(), stats.realtime_note);
 }
 
 }  // namespace
@@ -196,7 +203,8 @@ int main(int argc, char** argv) {
   app.add_flag("--skip-contact", skip_contact, "Only the loop runs");
   app.add_flag("--skip-loop", skip_loop, "Only the contact queries");
   app.add_flag("--no-viewer", no_viewer, "Do not render while the loop runs");
-  app.add_option("--spin-us", spin_us, "Busy-wait before each deadline (the loop's spin_ns)")->capture_default_str();
+  app.add_option("--spin-us", spin_us, "Busy-wait before each deadline (the loop's spin_ns)")
+      ->capture_default_str();
   app.add_option("--rates", rates, "Loop rates to run")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   std::cout << fmt::format("machine: {} cores\n", std::thread::hardware_concurrency());

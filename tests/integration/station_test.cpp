@@ -4,16 +4,17 @@
 // operator's cursor. Plus the touchmend-client binary: devices, bad devices, a viewer frame
 // under Xvfb with the mesh and a highlighted hole in it.
 
+#include "client/app/station.h"
+
 #include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <png.h>
 #include <thread>
 
 #include <gtest/gtest.h>
-#include <png.h>
 
-#include "client/app/station.h"
 #include "device/simulated_device.h"
 #include "device/trajectory.h"
 #include "tests/integration/server_process.h"
@@ -29,7 +30,8 @@ std::string read_file(const std::filesystem::path& path) {
   return {std::istreambuf_iterator<char>(in), {}};
 }
 
-const std::filesystem::path kCase = std::filesystem::path(TOUCHMEND_SHARED_DATA_DIR) / "cases" / "spot_sml" / "holed.off";
+const std::filesystem::path kCase =
+    std::filesystem::path(TOUCHMEND_SHARED_DATA_DIR) / "cases" / "spot_sml" / "holed.off";
 
 Eigen::AlignedBox3d bounds_of(const rpc::MeshDocument& d) {
   Eigen::AlignedBox3d box;
@@ -39,8 +41,8 @@ Eigen::AlignedBox3d bounds_of(const rpc::MeshDocument& d) {
 
 //! A trajectory (device frame) that comes from outside to `target`, presses button 1 there,
 //! releases and stays.
-device::Trajectory approach(const haptics::WorkspaceMap& map, const Vec3& outside, const Vec3& target,
-                            const Eigen::AlignedBox3d& workspace) {
+device::Trajectory approach(const haptics::WorkspaceMap& map, const Vec3& outside,
+                            const Vec3& target, const Eigen::AlignedBox3d& workspace) {
   device::Trajectory t;
   t.workspace = workspace;
   for (int i = 0; i <= 1600; ++i) {
@@ -84,7 +86,8 @@ TEST(Station, ReplayPressesOnAHoleTheServerFillsItAndEveryoneAgrees) {
   const Vec3 rim = before.surface->positions[hole.vertices.front()];
   const Eigen::AlignedBox3d model = bounds_of(station.document());
   const Vec3 outward = (rim - model.center()).normalized();
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
   device::ReplayDevice replay(
       approach(map, rim + 0.3 * model.diagonal().norm() * outward, rim, workspace), "approach");
@@ -149,7 +152,8 @@ TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {
   ASSERT_TRUE(whole.first_hit(above, model.center(), top));
   const Vec3 spot = top.point;
   const Vec3 inward = -Vec3::UnitY();
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
   device::SimulatedOptions so;
   so.start = map.to_device(spot - 0.1 * model.diagonal().norm() * inward);
@@ -162,7 +166,8 @@ TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {
   loop_options.contact.epsilon = 1e-6 * model.diagonal().norm();
   app::StationRuntime runtime(station, safe, loop_options);
   runtime.start();
-  for (int i = 0; i < 400 && runtime.loop().stats().patches_taken == 0; ++i) std::this_thread::sleep_for(10ms);
+  for (int i = 0; i < 400 && runtime.loop().stats().patches_taken == 0; ++i)
+    std::this_thread::sleep_for(10ms);
   // A hand's pace (the safety filter disarms above 1 m/s): half a second down to the surface.
   const Vec3 pressed = map.to_device(spot + 0.02 * model.diagonal().norm() * inward);
   for (int i = 1; i <= 50; ++i) {
@@ -175,9 +180,10 @@ TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {
     return ui.front().in_contact && ui.front().force.norm() > 0.05;
   };
   for (int i = 0; i < 400 && !touching(); ++i) std::this_thread::sleep_for(10ms);
-  ASSERT_TRUE(touching()) << "the stylus never pressed on the surface: proxy " << ui.front().proxy.transpose()
-                          << " device " << ui.front().device_position.transpose() << " spot "
-                          << spot.transpose() << " patches " << runtime.loop().stats().patches_taken << " safety "
+  ASSERT_TRUE(touching()) << "the stylus never pressed on the surface: proxy "
+                          << ui.front().proxy.transpose() << " device "
+                          << ui.front().device_position.transpose() << " spot " << spot.transpose()
+                          << " patches " << runtime.loop().stats().patches_taken << " safety "
                           << device::to_string(safe.arm_state()) << " velocity trips "
                           << safe.counters().velocity_trips;
 
@@ -217,7 +223,9 @@ TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {
 // ---- the binary ----
 
 int run(const std::string& command, std::string& output) {
-  const std::string file = (std::filesystem::temp_directory_path() / ("tm-client-" + std::to_string(::getpid()) + ".out")).string();
+  const std::string file = (std::filesystem::temp_directory_path() /
+                            ("tm-client-" + std::to_string(::getpid()) + ".out"))
+                               .string();
   const int rc = std::system((command + " > " + file + " 2>&1").c_str());
   output = read_file(file);
   std::filesystem::remove(file);
@@ -232,15 +240,25 @@ TEST(ClientBinary, DevicesAndUsageErrors) {
   // No Falcon here: a clear message and a non-zero exit.
   EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --device falcon --headless", out), 1) << out;
   EXPECT_NE(out.find("Falcon"), std::string::npos) << out;
-  EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --device phantom --headless", out), 2) << out;
-  EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --device replay:/nonexistent.traj --headless", out), 1) << out;
+  EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --device phantom --headless", out), 2)
+      << out;
+  EXPECT_EQ(
+      run(std::string(TOUCHMEND_CLIENT_PATH) + " --device replay:/nonexistent.traj --headless",
+          out),
+      1)
+      << out;
   EXPECT_NE(out.find("nonexistent"), std::string::npos) << out;
   // No server: exit code 4.
-  EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --server 127.0.0.1:1 --headless --duration 1", out), 4) << out;
+  EXPECT_EQ(
+      run(std::string(TOUCHMEND_CLIENT_PATH) + " --server 127.0.0.1:1 --headless --duration 1",
+          out),
+      4)
+      << out;
 }
 
 TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
-  if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run not installed";
+  if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "xvfb-run not installed";
   TempDir dir;
   ServerProcess server(dir.path());
   ASSERT_TRUE(server.start()) << server.log();
@@ -250,7 +268,8 @@ TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
   v1::SessionInfo info;
   ASSERT_TRUE(client.create_session("viewer", info).is_ok());
   v1::LoadMeshResponse loaded;
-  ASSERT_TRUE(client.upload_mesh(info.session_id(), read_file(mesh), v1::OFF, "spot.off", loaded).is_ok());
+  ASSERT_TRUE(
+      client.upload_mesh(info.session_id(), read_file(mesh), v1::OFF, "spot.off", loaded).is_ok());
   rpc::MeshDocument document;
   ASSERT_TRUE(client.download_document(info.session_id(), document).is_ok());
   const auto surface = app::surface_from_document(document);
@@ -258,7 +277,8 @@ TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
   ASSERT_FALSE(loops.empty());
   const Vec3 rim = surface->positions[loops.front().vertices.front()];
   const Eigen::AlignedBox3d model = bounds_of(document);
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
   device::Trajectory t;
   t.workspace = workspace;
@@ -270,12 +290,13 @@ TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
   // Under ASan, Mesa's software driver leaves allocations behind from a module it unloads at
   // exit (unattributable, so no suppression can name it): leak checking is off for this one
   // run of the client; every other client run in the tests keeps it.
-  const int rc = run("ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 xvfb-run -a -s '-screen 0 1280x1024x24' " +
-                         std::string(TOUCHMEND_CLIENT_PATH) +
-                         " --server 127.0.0.1:" + std::to_string(server.port()) + " --session " +
-                         info.session_id() + " --device replay:" + traj.string() +
-                         " --headless --duration 2 --screenshot " + png.string(),
-                     out);
+  const int rc =
+      run("ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 xvfb-run -a -s '-screen 0 1280x1024x24' " +
+              std::string(TOUCHMEND_CLIENT_PATH) +
+              " --server 127.0.0.1:" + std::to_string(server.port()) + " --session " +
+              info.session_id() + " --device replay:" + traj.string() +
+              " --headless --duration 2 --screenshot " + png.string(),
+          out);
   ASSERT_EQ(rc, 0) << out;
   ASSERT_TRUE(std::filesystem::exists(png)) << out;
   EXPECT_NE(out.find("screenshot"), std::string::npos) << out;

@@ -30,12 +30,24 @@ TEST(FalconProtocol, RecordedHostPacketsDecodeToTheirMotorValues) {
     std::array<std::int16_t, 3> motors;
   };
   const Case cases[] = {
-      {bytes({0x3c, 0x46, 0x4a, 0x43, 0x41, 0x4c, 0x4e, 0x43, 0x41, 0x4f, 0x50, 0x43, 0x41, 0x45, 0x41, 0x3e}), {661, 731, 766}},
-      {bytes({0x3c, 0x50, 0x42, 0x46, 0x41, 0x4e, 0x4b, 0x46, 0x41, 0x47, 0x50, 0x46, 0x41, 0x45, 0x41, 0x3e}), {1311, 1453, 1526}},
-      {bytes({0x3c, 0x50, 0x50, 0x50, 0x41, 0x43, 0x45, 0x50, 0x41, 0x43, 0x4d, 0x50, 0x41, 0x45, 0x41, 0x3e}), {4095, 3906, 4034}},
-      {bytes({0x3c, 0x4d, 0x4b, 0x45, 0x50, 0x4c, 0x42, 0x41, 0x41, 0x42, 0x4b, 0x44, 0x41, 0x45, 0x41, 0x3e}), {-2900, 27, 929}},
-      {bytes({0x3c, 0x4a, 0x46, 0x4e, 0x50, 0x42, 0x4f, 0x4a, 0x41, 0x4b, 0x4c, 0x49, 0x50, 0x45, 0x41, 0x3e}), {-679, 2529, -1862}},
-      {bytes({0x3c, 0x50, 0x49, 0x42, 0x41, 0x42, 0x50, 0x44, 0x50, 0x50, 0x47, 0x45, 0x41, 0x45, 0x41, 0x3e}), {399, -3087, 1135}},
+      {bytes({0x3c, 0x46, 0x4a, 0x43, 0x41, 0x4c, 0x4e, 0x43, 0x41, 0x4f, 0x50, 0x43, 0x41, 0x45,
+              0x41, 0x3e}),
+       {661, 731, 766}},
+      {bytes({0x3c, 0x50, 0x42, 0x46, 0x41, 0x4e, 0x4b, 0x46, 0x41, 0x47, 0x50, 0x46, 0x41, 0x45,
+              0x41, 0x3e}),
+       {1311, 1453, 1526}},
+      {bytes({0x3c, 0x50, 0x50, 0x50, 0x41, 0x43, 0x45, 0x50, 0x41, 0x43, 0x4d, 0x50, 0x41, 0x45,
+              0x41, 0x3e}),
+       {4095, 3906, 4034}},
+      {bytes({0x3c, 0x4d, 0x4b, 0x45, 0x50, 0x4c, 0x42, 0x41, 0x41, 0x42, 0x4b, 0x44, 0x41, 0x45,
+              0x41, 0x3e}),
+       {-2900, 27, 929}},
+      {bytes({0x3c, 0x4a, 0x46, 0x4e, 0x50, 0x42, 0x4f, 0x4a, 0x41, 0x4b, 0x4c, 0x49, 0x50, 0x45,
+              0x41, 0x3e}),
+       {-679, 2529, -1862}},
+      {bytes({0x3c, 0x50, 0x49, 0x42, 0x41, 0x42, 0x50, 0x44, 0x50, 0x50, 0x47, 0x45, 0x41, 0x45,
+              0x41, 0x3e}),
+       {399, -3087, 1135}},
   };
   for (const auto& c : cases) {
     const auto decoded = decode_command(c.packet);
@@ -50,14 +62,16 @@ TEST(FalconProtocol, RecordedHostPacketsDecodeToTheirMotorValues) {
 }
 
 TEST(FalconProtocol, SyntheticPacketsAndRanges) {
-  EXPECT_EQ(encode_command({}), bytes({0x3c, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x3e}));
+  EXPECT_EQ(encode_command({}), bytes({0x3c, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41,
+                                       0x41, 0x41, 0x41, 0x41, 0x41, 0x3e}));
   Command green;
   green.flags = kLedGreen | kHoming;
   EXPECT_EQ(encode_command(green)[13], 0x44);
   Command red;
   red.motors = {1, -1, 4095};
   red.flags = kLedRed;
-  EXPECT_EQ(encode_command(red), bytes({0x3c, 0x42, 0x41, 0x41, 0x41, 0x50, 0x50, 0x50, 0x50, 0x50, 0x50, 0x50, 0x41, 0x49, 0x41, 0x3e}));
+  EXPECT_EQ(encode_command(red), bytes({0x3c, 0x42, 0x41, 0x41, 0x41, 0x50, 0x50, 0x50, 0x50, 0x50,
+                                        0x50, 0x50, 0x41, 0x49, 0x41, 0x3e}));
   // Out-of-range commands are clamped to the DAC range.
   Command big;
   big.motors = {-4096, 30000, -30000};
@@ -73,11 +87,13 @@ TEST(FalconProtocol, SyntheticPacketsAndRanges) {
     EXPECT_EQ(back->encoders, r.encoders);
   }
   // Device reports from the table.
-  const auto homed = decode_report(bytes({0x3c, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0xb1, 0x41, 0x3e}));
+  const auto homed = decode_report(bytes({0x3c, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41, 0x41,
+                                          0x41, 0x41, 0x41, 0x41, 0xb1, 0x41, 0x3e}));
   ASSERT_TRUE(homed);
   EXPECT_TRUE(homed->all_homed());
   EXPECT_EQ(homed->buttons, 0);
-  const auto one = decode_report(bytes({0x3c, 0x50, 0x50, 0x50, 0x50, 0x45, 0x47, 0x41, 0x41, 0x4d, 0x4b, 0x45, 0x50, 0x5a, 0x41, 0x3e}));
+  const auto one = decode_report(bytes({0x3c, 0x50, 0x50, 0x50, 0x50, 0x45, 0x47, 0x41, 0x41, 0x4d,
+                                        0x4b, 0x45, 0x50, 0x5a, 0x41, 0x3e}));
   ASSERT_TRUE(one);
   EXPECT_EQ(one->encoders, (std::array<std::int16_t, 3>{-1, 100, -2900}));
   EXPECT_EQ(one->homed, 1);
@@ -155,9 +171,11 @@ TEST(FalconKinematics, InverseAndForwardAgreeAndTheJacobianMatchesDifferences) {
         // Encoder counts round-trip through the angle formula.
         const Eigen::Vector3d counts = encoders_from_angles(g, a);
         std::array<std::int16_t, 3> enc{};
-        for (int i = 0; i < 3; ++i) enc[static_cast<std::size_t>(i)] = static_cast<std::int16_t>(std::lround(counts[i]));
+        for (int i = 0; i < 3; ++i)
+          enc[static_cast<std::size_t>(i)] = static_cast<std::int16_t>(std::lround(counts[i]));
         const Angles back = angles_from_encoders(g, enc);
-        EXPECT_LT((back - a).cwiseAbs().maxCoeff(), 0.5 * g.encoder_deg_per_count * std::numbers::pi / 180 + 1e-12);
+        EXPECT_LT((back - a).cwiseAbs().maxCoeff(),
+                  0.5 * g.encoder_deg_per_count * std::numbers::pi / 180 + 1e-12);
         ++tested;
       }
   EXPECT_GT(tested, 100);
@@ -180,10 +198,11 @@ TEST(FalconKinematics, ForcesBecomeBoundedCommandsThatKeepTheirDirection) {
   EXPECT_EQ(largest, kMaxMotorCommand);
   // Uniform scaling: the ratios of the three commands are the same.
   for (int i = 0; i < 3; ++i)
-    EXPECT_NEAR(double(large[static_cast<std::size_t>(i)]) / kMaxMotorCommand,
-                double(small[static_cast<std::size_t>(i)]) /
-                    std::max({std::abs(int(small[0])), std::abs(int(small[1])), std::abs(int(small[2]))}),
-                2e-3);
+    EXPECT_NEAR(
+        double(large[static_cast<std::size_t>(i)]) / kMaxMotorCommand,
+        double(small[static_cast<std::size_t>(i)]) /
+            std::max({std::abs(int(small[0])), std::abs(int(small[1])), std::abs(int(small[2]))}),
+        2e-3);
   std::array<std::int16_t, 3> none{};
   EXPECT_FALSE(motor_commands(g, p, Eigen::Vector3d(NAN, 0, 0), 10000, none));
   EXPECT_EQ(none, (std::array<std::int16_t, 3>{0, 0, 0}));
@@ -243,7 +262,8 @@ class FakeFalcon final : public Transport {
     Angles a;
     inverse_kinematics(geometry_, position, a);
     const Eigen::Vector3d enc = encoders_from_angles(geometry_, a);
-    for (int i = 0; i < 3; ++i) r.encoders[static_cast<std::size_t>(i)] = static_cast<std::int16_t>(std::lround(enc[i]));
+    for (int i = 0; i < 3; ++i)
+      r.encoders[static_cast<std::size_t>(i)] = static_cast<std::int16_t>(std::lround(enc[i]));
     r.homed = homed ? 7 : 0;
     const Packet p = encode_report(r);
     std::vector<std::uint8_t> t{0x31, 0x60};
@@ -299,7 +319,8 @@ TEST(FalconFirmware, HandshakeUploadAndEchoCheck) {
   EXPECT_EQ(last_progress, image.size());  // last chunk 7914 mod 62 = 40 bytes
   // Normal mode afterwards: 1 ms latency, 1.5 Mbaud.
   ASSERT_GE(fake.controls.size(), 4u);
-  EXPECT_EQ(fake.controls[fake.controls.size() - 4], std::make_pair(FtdiRequest::LatencyTimer, std::uint16_t(1)));
+  EXPECT_EQ(fake.controls[fake.controls.size() - 4],
+            std::make_pair(FtdiRequest::LatencyTimer, std::uint16_t(1)));
   EXPECT_TRUE(firmware_running(fake));
 
   FakeFalcon corrupt;
@@ -332,7 +353,8 @@ TEST(FalconDevice, IoLoopHomesReportsPositionsAndNeverForcesUnhomed) {
   ASSERT_TRUE(device.open().ok);
   // Unhomed: the state says so, and a force request sends nothing but zero with homing set.
   DeviceState state;
-  for (int i = 0; i < 2000 && !device.read(state); ++i) std::this_thread::sleep_for(std::chrono::microseconds(200));
+  for (int i = 0; i < 2000 && !device.read(state); ++i)
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
   ASSERT_TRUE(device.read(state));
   EXPECT_FALSE(state.homed);
   device.write({Eigen::Vector3d(0, 0, 1.0), steady_now_ns() + 1'000'000'000});

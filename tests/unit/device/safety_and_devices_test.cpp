@@ -149,7 +149,8 @@ TEST(SafetyFilter, VelocityLimitAndGainAdmission) {
   SafetyOptions options;
   options.velocity_limit = 0.3;
   SimulatedOptions sim = Rig::virtual_options();
-  sim.script = {{0, Eigen::Vector3d::Zero(), 0}, {1.1, Eigen::Vector3d::Zero(), 0},
+  sim.script = {{0, Eigen::Vector3d::Zero(), 0},
+                {1.1, Eigen::Vector3d::Zero(), 0},
                 {1.25, Eigen::Vector3d(0.09, 0, 0), 0}};  // a fast jerk after arming
   Rig rig(sim, options);
   ASSERT_TRUE(rig.safe.open().ok);
@@ -195,7 +196,8 @@ TEST(SimulatedDevice, HandPullsTheStylusToTheTargetAndForcesPushBack) {
 
 TEST(Trajectory, FormatRoundTripAndClearErrors) {
   Trajectory trajectory;
-  trajectory.workspace = Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
+  trajectory.workspace =
+      Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1));
   std::vector<TrajectorySample>& samples = trajectory.samples;
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-0.05, 0.05);
@@ -219,16 +221,21 @@ TEST(Trajectory, FormatRoundTripAndClearErrors) {
   EXPECT_NE(error("touchmend-trajectory 2\n0 0 0 0 0\n").find("version 2"), std::string::npos);
   EXPECT_NE(error("hello\n").find("not a touchmend trajectory"), std::string::npos);
   EXPECT_NE(error("touchmend-trajectory 1\n0 0 nan 0 0\n").find("line 2"), std::string::npos);
-  EXPECT_NE(error("touchmend-trajectory 1\n1 0 0 0 0\n0.5 0 0 0 0\n").find("backwards"), std::string::npos);
+  EXPECT_NE(error("touchmend-trajectory 1\n1 0 0 0 0\n0.5 0 0 0 0\n").find("backwards"),
+            std::string::npos);
   EXPECT_NE(error("touchmend-trajectory 1\n0 0 0 0\n").find("expected"), std::string::npos);
   EXPECT_NE(error("touchmend-trajectory 1\n0 0 0 0 -1\n").find("buttons"), std::string::npos);
-  EXPECT_NE(error("touchmend-trajectory 1\n# only a comment\n").find("no samples"), std::string::npos);
-  EXPECT_NE(error("touchmend-trajectory 1\n0 0 0 0 0\nworkspace 0 0 0 1 1 1\n").find("before"), std::string::npos);
-  EXPECT_NE(error("touchmend-trajectory 1\nworkspace 0 0 0 1 1\n").find("workspace"), std::string::npos);
+  EXPECT_NE(error("touchmend-trajectory 1\n# only a comment\n").find("no samples"),
+            std::string::npos);
+  EXPECT_NE(error("touchmend-trajectory 1\n0 0 0 0 0\nworkspace 0 0 0 1 1 1\n").find("before"),
+            std::string::npos);
+  EXPECT_NE(error("touchmend-trajectory 1\nworkspace 0 0 0 1 1\n").find("workspace"),
+            std::string::npos);
 }
 
 TEST(Trajectory, RecordThenReplayReproducesTheMotion) {
-  const auto dir = std::filesystem::temp_directory_path() / ("touchmend-traj-" + std::to_string(std::random_device{}()));
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("touchmend-traj-" + std::to_string(std::random_device{}()));
   std::filesystem::create_directories(dir);
   const auto file = dir / "rec.traj";
   SimulatedOptions o = Rig::virtual_options();

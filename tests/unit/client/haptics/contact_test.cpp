@@ -19,11 +19,12 @@
 #include "tests/support/allocation_probe.h"
 #include "tests/support/haptic_meshes.h"
 
-
 namespace touchmend::haptics {
 namespace {
 
-SurfaceMesh sphere(double r, int around, int rings) { return testing::uv_sphere_surface(r, around, rings); }
+SurfaceMesh sphere(double r, int around, int rings) {
+  return testing::uv_sphere_surface(r, around, rings);
+}
 
 //! A grid z = 0 over [0, n]² (cell size 1), optionally without the cells in `hole`.
 SurfaceMesh plate(int n, const Eigen::AlignedBox2d& hole = Eigen::AlignedBox2d()) {
@@ -72,7 +73,8 @@ TriangleSet index(const SurfaceMesh& m) {
 }
 
 double angle_deg(const Vec3& a, const Vec3& b) {
-  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / std::numbers::pi;
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 /
+         std::numbers::pi;
 }
 
 TEST(Contact, SphereProxyStaysOutsideAndForceFollowsTheNormal) {
@@ -95,8 +97,8 @@ TEST(Contact, SphereProxyStaysOutsideAndForceFollowsTheNormal) {
     ASSERT_TRUE(c.in_contact);
     const Vec3 goal = 0.7 * dir;
     const Vec3 force_dir = c.proxy - goal;
-    EXPECT_LT(angle_deg(force_dir, c.normal), 1e-3);            // along the contact normal
-    EXPECT_LT(angle_deg(force_dir, c.proxy), 12.0);             // and close to the radial one
+    EXPECT_LT(angle_deg(force_dir, c.normal), 1e-3);  // along the contact normal
+    EXPECT_LT(angle_deg(force_dir, c.proxy), 12.0);   // and close to the radial one
     const Vec3 side = dir.unitOrthogonal();
     for (int k = 1; k <= 200; ++k) {
       const Vec3 g = 0.7 * (dir * std::cos(k * 0.01) + side * std::sin(k * 0.01));
@@ -113,14 +115,16 @@ TEST(Contact, SphereProxyStaysOutsideAndForceFollowsTheNormal) {
   EXPECT_EQ(c.proxy, Vec3(1.5, 0.3, 0));
 }
 
-bool inside_cube(const Vec3& p, double margin) { return p.cwiseAbs().maxCoeff() < 1 - margin; }
+bool inside_cube(const Vec3& p, double margin) {
+  return p.cwiseAbs().maxCoeff() < 1 - margin;
+}
 
 TEST(Contact, CubeFacesEdgesAndCornersDoNotLetThePointThrough) {
   const TriangleSet set = index(cube(3));
   // From outside, pressed in just behind a face, an edge or a corner: the proxy rests on the
   // nearest face (from inside a convex solid that is where the nearest surface point is),
   // never inside, and the force is along that face's normal only.
-  const Vec3 outside[] = {Vec3(1.5, 0.2, 0.1),  Vec3(1.5, 1.5, 0.3),  Vec3(1.5, 1.5, 1.5),
+  const Vec3 outside[] = {Vec3(1.5, 0.2, 0.1),   Vec3(1.5, 1.5, 0.3),   Vec3(1.5, 1.5, 1.5),
                           Vec3(-1.5, -1.5, 1.5), Vec3(0.0, -1.5, -1.5), Vec3(-1.5, 0.5, 0)};
   for (const Vec3& start : outside) {
     GodObject god;
@@ -200,7 +204,8 @@ TEST(Contact, ThinPlateIsTouchableFromBothSides) {
 }
 
 TEST(Contact, TheProxyFallsThroughAHoleButNotBesideIt) {
-  const TriangleSet set = index(plate(6, Eigen::AlignedBox2d(Eigen::Vector2d(2, 2), Eigen::Vector2d(4, 4))));
+  const TriangleSet set =
+      index(plate(6, Eigen::AlignedBox2d(Eigen::Vector2d(2, 2), Eigen::Vector2d(4, 4))));
   GodObject through;
   through.reset(Vec3(3, 3, 1));
   ContactResult c = through.update(set, Vec3(3, 3, -1));

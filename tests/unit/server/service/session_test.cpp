@@ -29,8 +29,8 @@ std::string sample() {
 class SessionTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("touchmend-session-" + std::to_string(std::random_device{}()));
+    dir_ =
+        fs::temp_directory_path() / ("touchmend-session-" + std::to_string(std::random_device{}()));
     fs::create_directories(dir_);
     store_ = open_store();
     row_.id = "s1";
