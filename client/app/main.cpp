@@ -221,17 +221,13 @@ int main(int argc, char** argv) {
             << raw->info().name << "\n";
 
   // Haptics: the workspace fits the model into the device's reach.
-  haptics::HapticLoopOptions loop_options;
+  haptics::HapticLoopOptions loop_options =
+      app::loop_options_for(app::bounds_of(station.document()), raw->info().workspace);
   loop_options.rate_hz = a.rate;
   loop_options.stiffness = a.stiffness;
   loop_options.damping = a.damping;
   loop_options.contact.friction = a.friction;
   loop_options.realtime = !a.no_realtime;
-  Eigen::AlignedBox3d model;
-  for (const auto& p : station.document().positions)
-    model.extend(Eigen::Vector3d(p[0], p[1], p[2]));
-  loop_options.workspace = haptics::WorkspaceMap::fit(model, raw->info().workspace);
-  loop_options.contact.epsilon = 1e-6 * (model.isEmpty() ? 1.0 : model.diagonal().norm());
   app::StationRuntime runtime(station, safe, loop_options);
   haptics::HapticLoop& loop = runtime.loop();
   runtime.start();

@@ -317,6 +317,20 @@ StationView Station::view() const {
   return v;
 }
 
+haptics::HapticLoopOptions loop_options_for(const Eigen::AlignedBox3d& model,
+                                            const Eigen::AlignedBox3d& device_workspace) {
+  haptics::HapticLoopOptions options;
+  options.workspace = haptics::WorkspaceMap::fit(model, device_workspace);
+  options.contact.epsilon = 1e-6 * (model.isEmpty() ? 1.0 : model.diagonal().norm());
+  return options;
+}
+
+Eigen::AlignedBox3d bounds_of(const rpc::MeshDocument& document) {
+  Eigen::AlignedBox3d box;
+  for (const auto& p : document.positions) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  return box;
+}
+
 StationRuntime::StationRuntime(Station& station, device::SafetyFilter& device,
                                haptics::HapticLoopOptions options)
     : station_(station),

@@ -128,6 +128,13 @@ class Station {
   std::map<std::uint32_t, RemoteCursor> cursors_;
 };
 
+//! Loop options for a model in a device's workspace: the model scaled into the workspace, the
+//! proxy kept a millionth of the model's size off the surface; the rest are the defaults.
+haptics::HapticLoopOptions loop_options_for(const Eigen::AlignedBox3d& model,
+                                            const Eigen::AlignedBox3d& device_workspace);
+//! The model's bounding box (alive and dead slots alike: dead ones were part of it).
+Eigen::AlignedBox3d bounds_of(const rpc::MeshDocument& document);
+
 //! The running station: the haptic loop and proxy updater on a device, wired to a Station,
 //! and the network thread. start() and stop() keep the order that is safe for the device
 //! (forces only once everything feeds the loop; zero before the device closes).

@@ -33,12 +33,6 @@ std::string read_file(const std::filesystem::path& path) {
 const std::filesystem::path kCase =
     std::filesystem::path(TOUCHMEND_SHARED_DATA_DIR) / "cases" / "spot_sml" / "holed.off";
 
-Eigen::AlignedBox3d bounds_of(const rpc::MeshDocument& d) {
-  Eigen::AlignedBox3d box;
-  for (const auto& p : d.positions) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
-  return box;
-}
-
 //! A trajectory (device frame) that comes from outside to `target`, presses button 1 there,
 //! releases and stays.
 device::Trajectory approach(const haptics::WorkspaceMap& map, const Vec3& outside,
@@ -84,7 +78,7 @@ TEST(Station, ReplayPressesOnAHoleTheServerFillsItAndEveryoneAgrees) {
   // The trajectory: from outside the model straight onto a vertex of the first hole's rim.
   const auto& hole = before.holes->front();
   const Vec3 rim = before.surface->positions[hole.vertices.front()];
-  const Eigen::AlignedBox3d model = bounds_of(station.document());
+  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
   const Vec3 outward = (rim - model.center()).normalized();
   const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
                                       Eigen::Vector3d::Constant(0.1));
@@ -93,10 +87,7 @@ TEST(Station, ReplayPressesOnAHoleTheServerFillsItAndEveryoneAgrees) {
       approach(map, rim + 0.3 * model.diagonal().norm() * outward, rim, workspace), "approach");
   device::SafetyFilter safe(replay);
   ASSERT_TRUE(safe.open().ok);
-  haptics::HapticLoopOptions loop_options;
-  loop_options.workspace = map;
-  loop_options.contact.epsilon = 1e-6 * model.diagonal().norm();
-  app::StationRuntime runtime(station, safe, loop_options);
+  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
   runtime.start();
 
   // Wait for the fill to land in the station's replica.
@@ -142,7 +133,7 @@ TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {
   app::Station station(server.connect(), options);
   ASSERT_TRUE(station.start().is_ok());
   const app::StationView view = station.view();
-  const Eigen::AlignedBox3d model = bounds_of(station.document());
+  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
   // The simulated hand presses down onto the top of the model (where a ray from above first
   // meets it).
   haptics::TriangleSet whole;
@@ -161,10 +152,7 @@ TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {
   sim.set_target(so.start, 0);  // hold outside until the first proxy patch is there
   device::SafetyFilter safe(sim);
   ASSERT_TRUE(safe.open().ok);
-  haptics::HapticLoopOptions loop_options;
-  loop_options.workspace = map;
-  loop_options.contact.epsilon = 1e-6 * model.diagonal().norm();
-  app::StationRuntime runtime(station, safe, loop_options);
+  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
   runtime.start();
   for (int i = 0; i < 400 && runtime.loop().stats().patches_taken == 0; ++i)
     std::this_thread::sleep_for(10ms);
@@ -276,7 +264,7 @@ TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
   const auto loops = app::find_boundary_loops(*surface);
   ASSERT_FALSE(loops.empty());
   const Vec3 rim = surface->positions[loops.front().vertices.front()];
-  const Eigen::AlignedBox3d model = bounds_of(document);
+  const Eigen::AlignedBox3d model = app::bounds_of(document);
   const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
                                       Eigen::Vector3d::Constant(0.1));
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
