@@ -122,6 +122,7 @@ TEST(Station, ReplayPressesOnAHoleTheServerFillsItAndEveryoneAgrees) {
   // The haptic side did its part: ticks, patches, samples acknowledged.
   EXPECT_GT(runtime.loop().stats().ticks, 500u);
   EXPECT_GT(station.samples_sent(), 100u);
+  EXPECT_GT(station.samples_acked(), 0u);  // batches reached the server
 }
 
 TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {

@@ -4,6 +4,7 @@
 
 #include <deque>
 #include <numbers>
+#include <random>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -142,6 +143,63 @@ TEST(FalconProtocol, StreamReassemblyResynchronises) {
   std::vector<std::uint8_t> empty{0x31, 0x60};
   stream.feed_transfer(empty, out);
   EXPECT_EQ(out.size(), 2u);
+}
+
+TEST(FalconProtocol, RandomBytesNeverYieldAnInvalidReportAndGarbageNeverHidesAPacket) {
+  std::mt19937 rng(17);
+  std::uniform_int_distribution<int> byte(0, 255), size(0, 64);
+  ReportStream stream;
+  std::vector<Report> out;
+  for (int i = 0; i < 20000; ++i) {
+    std::vector<std::uint8_t> transfer(static_cast<std::size_t>(size(rng)));
+    for (auto& b : transfer) b = static_cast<std::uint8_t>(byte(rng));
+    // Bias toward the framing bytes so partial packets are common.
+    if (!transfer.empty() && i % 3 == 0) transfer[transfer.size() / 2] = kStart;
+    stream.feed_transfer(transfer, out);
+  }
+  for (const Report& r : out) {
+    EXPECT_LE(r.homed, 7);
+    EXPECT_LE(r.buttons, 15);
+    const auto again = decode_report(encode_report(r));
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->encoders, r.encoders);
+  }
+  // Valid packets separated by garbage without a start byte all come through, in order.
+  ReportStream clean;
+  std::vector<Report> got;
+  std::vector<Report> sent;
+  std::vector<std::uint8_t> payload;
+  for (int i = 0; i < 500; ++i) {
+    const int garbage = size(rng) % 7;
+    for (int g = 0; g < garbage; ++g) {
+      std::uint8_t b = static_cast<std::uint8_t>(byte(rng));
+      if (b == kStart) b = 0x00;
+      payload.push_back(b);
+    }
+    Report r;
+    r.encoders = {static_cast<std::int16_t>(byte(rng) * 100 - 12800), static_cast<std::int16_t>(i),
+                  static_cast<std::int16_t>(-i)};
+    r.buttons = static_cast<std::uint8_t>(i % 16);
+    r.homed = static_cast<std::uint8_t>(i % 8);
+    sent.push_back(r);
+    const Packet p = encode_report(r);
+    payload.insert(payload.end(), p.begin(), p.end());
+  }
+  for (std::size_t at = 0; at < payload.size();) {
+    const std::size_t n =
+        std::min<std::size_t>(payload.size() - at, 1 + std::size_t(size(rng)) % 62);
+    std::vector<std::uint8_t> transfer{0x31, 0x60};
+    transfer.insert(transfer.end(), payload.begin() + static_cast<std::ptrdiff_t>(at),
+                    payload.begin() + static_cast<std::ptrdiff_t>(at + n));
+    clean.feed_transfer(transfer, got);
+    at += n;
+  }
+  ASSERT_EQ(got.size(), sent.size());
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    EXPECT_EQ(got[i].encoders, sent[i].encoders);
+    EXPECT_EQ(got[i].buttons, sent[i].buttons);
+    EXPECT_EQ(got[i].homed, sent[i].homed);
+  }
 }
 
 TEST(FalconKinematics, InverseAndForwardAgreeAndTheJacobianMatchesDifferences) {

@@ -233,6 +233,34 @@ TEST(Trajectory, FormatRoundTripAndClearErrors) {
             std::string::npos);
 }
 
+TEST(Trajectory, RandomTextIsRejectedCleanly) {
+  std::mt19937 rng(23);
+  std::uniform_int_distribution<int> byte(0, 255), length(0, 400);
+  const std::string alphabet = "touchmend-trajectory 1\nworkspace0123456789.-+eE #\t\r nan inf";
+  std::uniform_int_distribution<std::size_t> pick(0, alphabet.size() - 1);
+  int accepted = 0;
+  for (int i = 0; i < 3000; ++i) {
+    std::string text = i % 2 ? "touchmend-trajectory 1\n" : "";
+    const int n = length(rng);
+    for (int k = 0; k < n; ++k) text += i % 3 ? alphabet[pick(rng)] : static_cast<char>(byte(rng));
+    Trajectory out;
+    const DeviceStatus s = parse_trajectory(text, out);
+    if (s.ok) {
+      ++accepted;
+      ASSERT_FALSE(out.samples.empty());
+      for (std::size_t j = 0; j < out.samples.size(); ++j) {
+        ASSERT_TRUE(out.samples[j].position.allFinite());
+        if (j > 0) {
+          ASSERT_GE(out.samples[j].t, out.samples[j - 1].t);
+        }
+      }
+    } else {
+      EXPECT_FALSE(s.message.empty());
+    }
+  }
+  EXPECT_LT(accepted, 3000);
+}
+
 TEST(Trajectory, RecordThenReplayReproducesTheMotion) {
   const auto dir = std::filesystem::temp_directory_path() /
                    ("touchmend-traj-" + std::to_string(std::random_device{}()));
