@@ -172,6 +172,10 @@ Status RepairClient::fill_holes(const v1::FillHolesRequest& request, v1::EditRes
   return channel()->unary("FillHoles", request, out, timeout);
 }
 
+Status RepairClient::stitch(const v1::StitchRequest& request, v1::EditResponse& out) {
+  return channel()->unary("Stitch", request, out);
+}
+
 Status RepairClient::undo(const std::string& session_id, v1::EditResponse& out) {
   return channel()->unary("Undo", ref(session_id), out);
 }

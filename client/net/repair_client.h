@@ -76,6 +76,7 @@ class RepairClient {
                            v1::FindNearestHoleResponse& out);
   Status fill_holes(const v1::FillHolesRequest& request, v1::EditResponse& out,
                     std::chrono::milliseconds timeout = std::chrono::minutes(10));
+  Status stitch(const v1::StitchRequest& request, v1::EditResponse& out);
   Status undo(const std::string& session_id, v1::EditResponse& out);
   Status redo(const std::string& session_id, v1::EditResponse& out);
 

@@ -169,6 +169,7 @@ RepairService::RepairService(Store& store, JobManager& jobs, asio::thread_pool& 
       {"ListHoles", &RepairService::list_holes},
       {"FindNearestHole", &RepairService::find_nearest_hole},
       {"FillHoles", &RepairService::fill_holes},
+      {"Stitch", &RepairService::stitch},
       {"Undo", &RepairService::undo},
       {"Redo", &RepairService::redo},
       {"Subscribe", &RepairService::subscribe},
@@ -495,6 +496,15 @@ void RepairService::fill_holes(const CallPtr& call) {
         Status s = session->fill(req, call->principal(), call.get(), response);
         reply(call, s, response);
       });
+}
+
+void RepairService::stitch(const CallPtr& call) {
+  on_session<v1::StitchRequest>(call,
+                                [call](const v1::StitchRequest& req, const SessionPtr& session) {
+                                  v1::EditResponse response;
+                                  Status s = session->stitch(req, call->principal(), response);
+                                  reply(call, s, response);
+                                });
 }
 
 void RepairService::undo(const CallPtr& call) {

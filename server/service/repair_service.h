@@ -57,6 +57,7 @@ class RepairService final : public CallDispatcher {
   void list_holes(const CallPtr& call);
   void find_nearest_hole(const CallPtr& call);
   void fill_holes(const CallPtr& call);
+  void stitch(const CallPtr& call);
   void undo(const CallPtr& call);
   void redo(const CallPtr& call);
   void subscribe(const CallPtr& call);

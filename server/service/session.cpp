@@ -335,6 +335,34 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
   return {};
 }
 
+Status Session::stitch(const v1::StitchRequest& request, const std::string& principal,
+                       v1::EditResponse& response) {
+  if (!request.request_id().empty()) {
+    if (auto done = store_.journal_by_request(row_.id, request.request_id())) {
+      response.ParseFromString(done->response);
+      return {};
+    }
+  }
+  if (document_.faces.empty())
+    return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
+  SessionGeometry::FillOutcome outcome =
+      geometry_.stitch(document_, request.a(), request.b(), request.t(), current_extent());
+  if (!outcome.status.is_ok()) return outcome.status;
+  outcome.delta.set_description("stitch " + std::to_string(request.a()) + "-" +
+                                std::to_string(request.b()) + " to " + std::to_string(request.t()));
+  *response.mutable_delta() = std::move(outcome.delta);
+  if (Status s = commit(JournalKind::Edit, 0, response, principal, request.request_id());
+      !s.is_ok()) {
+    geometry_.invalidate();
+    return s;
+  }
+  geometry_.commit_fill();
+  push_undo(document_.version, response.delta());
+  redo_.clear();
+  refresh_summary();
+  return {};
+}
+
 Status Session::step_history(History direction, const std::string& principal,
                              v1::EditResponse& response) {
   const bool undoing = direction == History::Undo;

@@ -57,6 +57,9 @@ class Session : public std::enable_shared_from_this<Session> {
               v1::LoadMeshResponse& response);
   Status fill(const v1::FillHolesRequest& request, const std::string& principal,
               const ServerCall* call, v1::EditResponse& response);
+  //! One stitch triangle across a gap (Algorithm VIII); an undoable edit like a fill.
+  Status stitch(const v1::StitchRequest& request, const std::string& principal,
+                v1::EditResponse& response);
   enum class History { Undo, Redo };
   //! Undoes the last edit (journaled as the inverse delta) or redoes the last undone one.
   Status step_history(History direction, const std::string& principal, v1::EditResponse& response);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <unordered_map>
 
+#include "server/geometry/gap_bridging.h"
 #include "server/geometry/metrics.h"
 
 namespace touchmend::service {
@@ -353,8 +354,32 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
     outcome.status = {StatusCode::FailedPrecondition, "the mesh has no holes"};
     return outcome;
   }
-  // The edit as a delta: new vertices and faces get the next free document slots, in order.
-  v1::MeshDelta& delta = outcome.delta;
+  outcome.report.set_holes_found(static_cast<std::uint32_t>(report.holes_found));
+  for (const std::uint32_t id : report.unknown_ids) outcome.report.add_unknown_ids(doc_vertex(id));
+  std::vector<VertexHandle> new_vertices;
+  std::vector<FaceHandle> new_faces;
+  for (const auto& h : report.holes) {
+    v1::HoleFillResult* r = outcome.report.add_holes();
+    to_proto(h, *r);
+    r->set_hole_id(doc_id_of_hole(h.hole_id));
+    if (!h.filled) continue;
+    for (const auto v : h.new_vertices) {
+      if (!mesh_.status(v).deleted()) new_vertices.push_back(v);
+    }
+    for (const auto f : h.new_faces) {
+      if (!mesh_.status(f).deleted()) new_faces.push_back(f);
+    }
+  }
+  outcome.delta = edit_delta(document, std::move(new_vertices), std::move(new_faces), first_free);
+  return outcome;
+}
+
+v1::MeshDelta SessionGeometry::edit_delta(const rpc::MeshDocument& document,
+                                          std::vector<VertexHandle> new_vertices,
+                                          std::vector<FaceHandle> new_faces,
+                                          SlotExtent first_free) {
+  // The edit as a delta: new vertices and faces get free document slots, in order.
+  v1::MeshDelta delta;
   delta.set_base_version(document.version);
   delta.set_version(document.version + 1);
   pending_vertex_map_.clear();
@@ -375,24 +400,8 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
   };
   std::vector<std::uint32_t> vertex_map = doc_of_mesh_vertex_;
   vertex_map.resize(mesh_.n_vertices(), kNoId);
-  outcome.report.set_holes_found(static_cast<std::uint32_t>(report.holes_found));
-  for (const std::uint32_t id : report.unknown_ids) outcome.report.add_unknown_ids(doc_vertex(id));
   // New elements get document ids in handle order, the order garbage collection keeps, so an
-  // export lists them exactly as an in-process fill written to a file does.
-  std::vector<VertexHandle> new_vertices;
-  std::vector<FaceHandle> new_faces;
-  for (const auto& h : report.holes) {
-    v1::HoleFillResult* r = outcome.report.add_holes();
-    to_proto(h, *r);
-    r->set_hole_id(doc_id_of_hole(h.hole_id));
-    if (!h.filled) continue;
-    for (const auto v : h.new_vertices) {
-      if (!mesh_.status(v).deleted()) new_vertices.push_back(v);
-    }
-    for (const auto f : h.new_faces) {
-      if (!mesh_.status(f).deleted()) new_faces.push_back(f);
-    }
-  }
+  // export lists them exactly as an in-process edit written to a file does.
   std::sort(new_vertices.begin(), new_vertices.end());
   std::sort(new_faces.begin(), new_faces.end());
   for (const auto v : new_vertices) {
@@ -416,6 +425,34 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
     }
   }
   pending_version_ = document.version + 1;
+  return delta;
+}
+
+SessionGeometry::FillOutcome SessionGeometry::stitch(const rpc::MeshDocument& document,
+                                                     std::uint32_t a, std::uint32_t b,
+                                                     std::uint32_t t, SlotExtent first_free) {
+  FillOutcome outcome;
+  sync(document);
+  const auto mesh_vertex = [&](std::uint32_t id) {
+    const std::uint32_t m = id < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[id] : kNoId;
+    return m == kNoId || id >= document.vertex_alive.size() || !document.vertex_alive[id]
+               ? VertexHandle()
+               : VertexHandle(static_cast<int>(m));
+  };
+  const VertexHandle va = mesh_vertex(a), vb = mesh_vertex(b), vt = mesh_vertex(t);
+  if (!va.is_valid() || !vb.is_valid() || !vt.is_valid()) {
+    outcome.status = {StatusCode::NotFound, "no vertex with one of the ids " + std::to_string(a) +
+                                                ", " + std::to_string(b) + ", " +
+                                                std::to_string(t)};
+    return outcome;
+  }
+  const geometry::StitchResult r = geometry::stitch_triangle(mesh_, va, vb, vt);
+  if (!r.ok) {
+    outcome.status = {StatusCode::FailedPrecondition, "stitch refused: " + r.reason};
+    return outcome;
+  }
+  holes_.reset();
+  outcome.delta = edit_delta(document, {}, {r.face}, first_free);
   return outcome;
 }
 

@@ -96,6 +96,10 @@ class SessionGeometry {
   FillOutcome fill(const rpc::MeshDocument& document, const v1::HoleSelection& selection,
                    const v1::FillOptions& options, const geometry::FillProgress& progress,
                    SlotExtent first_free = {});
+  //! One stitch triangle (seed 000 Algorithm VIII) over the boundary edge {a, b} to the
+  //! boundary vertex t (document vertex ids), as a delta (not yet applied, like fill()).
+  FillOutcome stitch(const rpc::MeshDocument& document, std::uint32_t a, std::uint32_t b,
+                     std::uint32_t t, SlotExtent first_free = {});
   //! Records that the last fill's delta was applied to the document (else invalidate()).
   void commit_fill();
   //! Brings the cache along with an edit made elsewhere (undo, redo) instead of rebuilding
@@ -133,6 +137,11 @@ class SessionGeometry {
   std::size_t faces_at_rebuild_ = 0;
   std::size_t vertices_at_rebuild_ = 0;
   void bound_growth();
+  //! The delta adding \p new_vertices and \p new_faces (already in the cache), with the
+  //! pending maps commit_fill() applies.
+  v1::MeshDelta edit_delta(const rpc::MeshDocument& document,
+                           std::vector<geometry::VertexHandle> new_vertices,
+                           std::vector<geometry::FaceHandle> new_faces, SlotExtent first_free);
 };
 
 }  // namespace touchmend::service

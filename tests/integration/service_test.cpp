@@ -852,3 +852,65 @@ TEST(Service, MetricsAndHealthOverHttp) {
 
 }  // namespace
 }  // namespace touchmend::testing
+
+namespace touchmend::testing {
+namespace {
+
+//! Two 4x4-cell plates facing +z with a 0.5-wide gap between x = 4 and x = 4.5, as OFF.
+std::string two_plates_off() {
+  geometry::MeshSoup soup = grid(4, 4);
+  const geometry::MeshSoup right = grid(4, 4);
+  const auto offset = static_cast<std::uint32_t>(soup.points.size());
+  for (const auto& p : right.points) soup.points.push_back(p + geometry::Vec3(4.5, 0, 0));
+  for (const auto& t : right.triangles)
+    soup.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  std::string off;
+  geometry::serialize_mesh(geometry::build_mesh(soup).mesh, geometry::MeshFormat::Off, {}, off);
+  return off;
+}
+
+TEST(Service, StitchesAcrossAGapAreUndoableEditsEveryoneSees) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  RepairClient a(server.connect()), b(server.connect());
+  v1::SessionInfo info;
+  ASSERT_TRUE(a.create_session("gap", info).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(
+      a.upload_mesh(info.session_id(), two_plates_off(), v1::OFF, "plates.off", loaded).is_ok());
+  net::SessionReplica replica(b, info.session_id());
+  ASSERT_TRUE(replica.start().is_ok());
+  // Vertex ids: left plate y*5+x, right plate 25 + y*5+x.
+  v1::StitchRequest stitch;
+  stitch.set_session_id(info.session_id());
+  stitch.set_a(4);   // left (4, 0)
+  stitch.set_b(9);   // left (4, 1)
+  stitch.set_t(25);  // right (0, 0)
+  v1::EditResponse edit;
+  ASSERT_TRUE(a.stitch(stitch, edit).is_ok());
+  EXPECT_EQ(edit.delta().added_face_ids_size(), 1);
+  ASSERT_TRUE(replica.wait_for_version(edit.version(), 10s).is_ok());
+  rpc::MeshDocument server_doc;
+  ASSERT_TRUE(a.download_document(info.session_id(), server_doc).is_ok());
+  EXPECT_EQ(replica.document(), server_doc);
+  // Refused stitches answer with the reason and change nothing.
+  v1::StitchRequest interior = stitch;
+  interior.set_a(6);
+  interior.set_b(7);
+  v1::EditResponse refused;
+  Status s = a.stitch(interior, refused);
+  EXPECT_EQ(s.code, StatusCode::FailedPrecondition);
+  EXPECT_NE(s.message.find("not a boundary edge"), std::string::npos) << s.message;
+  v1::StitchRequest unknown = stitch;
+  unknown.set_t(999999);
+  EXPECT_EQ(a.stitch(unknown, refused).code, StatusCode::NotFound);
+  // Undo takes the stitch away for everyone.
+  v1::EditResponse undone;
+  ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
+  ASSERT_TRUE(replica.wait_for_version(undone.version(), 10s).is_ok());
+  EXPECT_EQ(replica.document().alive_faces(), 64u);
+}
+
+}  // namespace
+}  // namespace touchmend::testing
