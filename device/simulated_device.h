@@ -61,7 +61,6 @@ class SimulatedDevice final : public HapticDevice {
   void inject_fault() { fault_ = true; }
   //! The force the output stage applied in the last sub-step (after expiry).
   const Eigen::Vector3d& applied_force() const { return applied_; }
-  bool is_open() const { return open_; }
 
  private:
   void step_to(std::int64_t t);

@@ -248,6 +248,8 @@ int main(int argc, char** argv) {
       viewer.reset();
       code = 1;
       g_interrupted = true;
+    } else {
+      std::cout << "viewer: OpenGL " << viewer->gl_version() << "\n";
     }
   }
   auto* sim = dynamic_cast<device::SimulatedDevice*>(raw.get());

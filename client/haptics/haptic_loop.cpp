@@ -174,7 +174,6 @@ void HapticLoop::step(std::int64_t now_ns) {
     }
     have_patch_ = true;
     patch_version_ = p.version;
-    patch_serial_ = p.serial;
     patches_taken_.fetch_add(1, std::memory_order_relaxed);
   }
   device::DeviceState state;

@@ -39,7 +39,6 @@ struct WorkspaceMap {
 //! A proxy patch with the mesh version it was cut from.
 struct ProxyPatch {
   std::uint64_t version = 0;
-  std::uint64_t serial = 0;  //!< increases with every publish (a new patch, same version or not)
   Vec3 centre = Vec3::Zero();
   double radius = 0;
   TriangleSet triangles;
@@ -155,7 +154,6 @@ class HapticLoop {
   const Histogram& compute_time() const { return compute_time_; }
   LoopStats stats() const;
   void reset_statistics();
-  double gains_stiffness() const { return stiffness_; }
 
   //! One tick's work without the timing (tests drive the loop with virtual clocks).
   void step(std::int64_t now_ns);
@@ -180,7 +178,6 @@ class HapticLoop {
   std::uint64_t tick_ = 0;
   bool have_patch_ = false;
   std::uint64_t patch_version_ = 0;
-  std::uint64_t patch_serial_ = 0;
   int blend_left_ = 0;
   Vec3 blend_from_ = Vec3::Zero();
   Vec3 last_force_ = Vec3::Zero();

@@ -58,7 +58,6 @@ void ProxyUpdater::build_patch(const Vec3& centre, double extra) {
   whole_.in_sphere(centre, radius_ + extra, scratch_);
   ProxyPatch& patch = patches_.back();
   patch.version = version_;
-  patch.serial = ++serial_;
   patch.centre = centre;
   patch.radius = radius_ + extra;
   patch.triangles.build_from(whole_, scratch_);

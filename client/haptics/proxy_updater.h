@@ -62,7 +62,6 @@ class ProxyUpdater {
   bool have_patch_ = false;
   Vec3 patch_centre_ = Vec3::Zero();
   double patch_extra_ = 0;
-  std::uint64_t serial_ = 0;
   std::vector<std::uint32_t> scratch_;
   std::atomic<std::uint64_t> built_{0};
   std::atomic<double> last_build_ms_{0};

@@ -293,12 +293,7 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
 
 Status Session::fill(const v1::FillHolesRequest& request, const std::string& principal,
                      const ServerCall* call, v1::EditResponse& response) {
-  if (!request.request_id().empty()) {
-    if (auto done = store_.journal_by_request(row_.id, request.request_id())) {
-      response.ParseFromString(done->response);  // the same answer as the first time
-      return {};
-    }
-  }
+  if (answered_before(request.request_id(), response)) return {};
   if (document_.faces.empty())
     return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
   SessionGeometry::FillOutcome outcome = geometry_.fill(
@@ -312,7 +307,7 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
   }
   *response.mutable_report() = outcome.report;
   if (delta_is_empty(outcome.delta)) {
-    geometry_.commit_fill();  // nothing added; failed attempts are deleted in the cache
+    geometry_.commit_pending();  // nothing added; failed attempts are deleted in the cache
     geometry_.invalidate();
     response.set_version(document_.version);
     return {};
@@ -322,27 +317,12 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
     if (h.filled()) description += " " + std::to_string(h.hole_id());
   }
   outcome.delta.set_description(description);
-  *response.mutable_delta() = std::move(outcome.delta);
-  if (Status s = commit(JournalKind::Edit, 0, response, principal, request.request_id());
-      !s.is_ok()) {
-    geometry_.invalidate();
-    return s;
-  }
-  geometry_.commit_fill();
-  push_undo(document_.version, response.delta());
-  redo_.clear();
-  refresh_summary();
-  return {};
+  return commit_cache_edit(std::move(outcome.delta), principal, request.request_id(), response);
 }
 
 Status Session::stitch(const v1::StitchRequest& request, const std::string& principal,
                        v1::EditResponse& response) {
-  if (!request.request_id().empty()) {
-    if (auto done = store_.journal_by_request(row_.id, request.request_id())) {
-      response.ParseFromString(done->response);
-      return {};
-    }
-  }
+  if (answered_before(request.request_id(), response)) return {};
   if (document_.faces.empty())
     return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
   SessionGeometry::FillOutcome outcome =
@@ -350,13 +330,25 @@ Status Session::stitch(const v1::StitchRequest& request, const std::string& prin
   if (!outcome.status.is_ok()) return outcome.status;
   outcome.delta.set_description("stitch " + std::to_string(request.a()) + "-" +
                                 std::to_string(request.b()) + " to " + std::to_string(request.t()));
-  *response.mutable_delta() = std::move(outcome.delta);
-  if (Status s = commit(JournalKind::Edit, 0, response, principal, request.request_id());
-      !s.is_ok()) {
+  return commit_cache_edit(std::move(outcome.delta), principal, request.request_id(), response);
+}
+
+bool Session::answered_before(const std::string& request_id, v1::EditResponse& response) {
+  if (request_id.empty()) return false;
+  auto done = store_.journal_by_request(row_.id, request_id);
+  if (!done) return false;
+  response.ParseFromString(done->response);  // the same answer as the first time
+  return true;
+}
+
+Status Session::commit_cache_edit(v1::MeshDelta delta, const std::string& principal,
+                                  const std::string& request_id, v1::EditResponse& response) {
+  *response.mutable_delta() = std::move(delta);
+  if (Status s = commit(JournalKind::Edit, 0, response, principal, request_id); !s.is_ok()) {
     geometry_.invalidate();
     return s;
   }
-  geometry_.commit_fill();
+  geometry_.commit_pending();
   push_undo(document_.version, response.delta());
   redo_.clear();
   refresh_summary();

@@ -79,6 +79,12 @@ class Session : public std::enable_shared_from_this<Session> {
   Status commit(JournalKind kind, std::uint64_t target, v1::EditResponse& response,
                 const std::string& principal, const std::string& request_id);
   void broadcast(const v1::SessionEvent& event);
+  //! True (and the first answer in \p response) if \p request_id was already journaled.
+  bool answered_before(const std::string& request_id, v1::EditResponse& response);
+  //! Journals an edit the mesh cache already made (fill, stitch), applies it to the document
+  //! and the cache, and makes it undoable.
+  Status commit_cache_edit(v1::MeshDelta delta, const std::string& principal,
+                           const std::string& request_id, v1::EditResponse& response);
   SnapshotRow make_snapshot() const;
   void refresh_summary();
 

@@ -456,7 +456,7 @@ SessionGeometry::FillOutcome SessionGeometry::stitch(const rpc::MeshDocument& do
   return outcome;
 }
 
-void SessionGeometry::commit_fill() {
+void SessionGeometry::commit_pending() {
   doc_of_mesh_vertex_.resize(mesh_.n_vertices(), kNoId);
   doc_of_mesh_face_.resize(mesh_.n_faces(), kNoId);
   for (std::size_t i = 0; i + 1 < pending_vertex_map_.size(); i += 2) {

@@ -90,7 +90,7 @@ class SessionGeometry {
     v1::MeshDelta delta;  //!< from document.version to document.version + 1 (maybe empty)
   };
   //! Fills the selected holes on the cache and returns the edit as a delta on \p document
-  //! (not yet applied: the caller journals it, then applies it and calls commit_fill).
+  //! (not yet applied: the caller journals it, then applies it and calls commit_pending).
   //! New elements take the document's slots from \p first_free on (dead slots above the
   //! applied history, see Session), then append.
   FillOutcome fill(const rpc::MeshDocument& document, const v1::HoleSelection& selection,
@@ -100,8 +100,9 @@ class SessionGeometry {
   //! boundary vertex t (document vertex ids), as a delta (not yet applied, like fill()).
   FillOutcome stitch(const rpc::MeshDocument& document, std::uint32_t a, std::uint32_t b,
                      std::uint32_t t, SlotExtent first_free = {});
-  //! Records that the last fill's delta was applied to the document (else invalidate()).
-  void commit_fill();
+  //! Records that the last fill's or stitch's delta was applied to the document (else
+  //! invalidate()).
+  void commit_pending();
   //! Brings the cache along with an edit made elsewhere (undo, redo) instead of rebuilding
   //! it from the document, which is O(mesh size): deleted faces are deleted in the mesh,
   //! revived or new ones added. Anything unexpected falls back to invalidate().
@@ -138,7 +139,7 @@ class SessionGeometry {
   std::size_t vertices_at_rebuild_ = 0;
   void bound_growth();
   //! The delta adding \p new_vertices and \p new_faces (already in the cache), with the
-  //! pending maps commit_fill() applies.
+  //! pending maps commit_pending() applies.
   v1::MeshDelta edit_delta(const rpc::MeshDocument& document,
                            std::vector<geometry::VertexHandle> new_vertices,
                            std::vector<geometry::FaceHandle> new_faces, SlotExtent first_free);

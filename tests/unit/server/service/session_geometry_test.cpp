@@ -37,7 +37,7 @@ TEST(SessionGeometry, UndoAndRedoUpdateTheCacheLikeARebuild) {
   auto filled = cache.fill(doc, selection, {}, {});
   ASSERT_TRUE(filled.status.is_ok()) << filled.status.to_string();
   ASSERT_TRUE(rpc::apply_delta(doc, filled.delta).is_ok());
-  cache.commit_fill();
+  cache.commit_pending();
   EXPECT_EQ(hole_ids(cache, doc).size(), 2u);
 
   // Undo: the cache follows the inverse delta without a rebuild, and agrees with one.
@@ -66,7 +66,7 @@ TEST(SessionGeometry, UndoAndRedoUpdateTheCacheLikeARebuild) {
   ASSERT_EQ(second.report.holes_size(), 1);
   EXPECT_TRUE(second.report.holes(0).filled());
   ASSERT_TRUE(rpc::apply_delta(doc, second.delta).is_ok());
-  cache.commit_fill();
+  cache.commit_pending();
   EXPECT_EQ(hole_ids(cache, doc).size(), 1u);
 
   // A delta that does not follow the cached version makes it rebuild, not guess.
