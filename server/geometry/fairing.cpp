@@ -29,6 +29,14 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
     return report;
   }
   const int k = std::clamp(options.continuity, 0, 2) + 1;
+  const auto counts = [&](HalfedgeHandle side) {
+    return !mesh.is_boundary(side) &&
+           !(options.ignore_face && options.ignore_face(mesh.face_handle(side)));
+  };
+  // An edge exists for the operator when one of its faces does.
+  const auto edge_counts = [&](HalfedgeHandle h) {
+    return counts(h) || counts(mesh.opposite_halfedge_handle(h));
+  };
   // Vertices within distance k of the free set: rows of L are needed up to distance k-1.
   std::unordered_map<int, int> local;  // vertex index -> local index
   std::vector<VertexHandle> vertices;
@@ -43,11 +51,14 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
   for (int ring = 1; ring <= k; ++ring) {
     const std::size_t ring_end = vertices.size();
     for (std::size_t i = ring_begin; i < ring_end; ++i)
-      for (const VertexHandle w : mesh.vv_range(vertices[i]))
+      for (const HalfedgeHandle h : mesh.voh_range(vertices[i])) {
+        if (!edge_counts(h)) continue;
+        const VertexHandle w = mesh.to_vertex_handle(h);
         if (local.emplace(w.idx(), static_cast<int>(vertices.size())).second) {
           vertices.push_back(w);
           ring_of.push_back(ring);
         }
+      }
     ring_begin = ring_end;
   }
   const int n = static_cast<int>(vertices.size());
@@ -62,12 +73,13 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
     double area = 0;
     double diagonal = 0;
     for (const HalfedgeHandle h : mesh.voh_range(v)) {
+      if (!edge_counts(h)) continue;
       const VertexHandle w = mesh.to_vertex_handle(h);
       double weight = 1.0;
       if (options.weights == FairingWeights::Cotangent) {
         weight = 0;
         for (const HalfedgeHandle side : {h, mesh.opposite_halfedge_handle(h)}) {
-          if (mesh.is_boundary(side)) continue;
+          if (!counts(side)) continue;
           const VertexHandle o = mesh.to_vertex_handle(mesh.next_halfedge_handle(side));
           weight += 0.5 * cotangent(mesh.point(o), pv, mesh.point(w));
         }
@@ -77,7 +89,7 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
       if (it == local.end()) continue;  // cannot happen for rows of ring < k
       triplets.emplace_back(i, it->second, weight);
       diagonal -= weight;
-      if (!mesh.is_boundary(h)) {
+      if (counts(h)) {
         const Vec3& pw = mesh.point(w);
         const Vec3& po = mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(h)));
         area += OpenMesh::cross(pw - pv, po - pv).norm() / 6.0;  // a third of the face area

@@ -6,6 +6,7 @@
 //! With k = 2 (bi-Laplacian, the default) the hole boundary and the ring of mesh vertices
 //! around it constrain the patch, so it meets its neighbours with matching tangents.
 
+#include <functional>
 #include <span>
 #include <string>
 
@@ -21,6 +22,9 @@ enum class FairingWeights {
 struct FairingOptions {
   int continuity = 1;  //!< k = continuity + 1: 0 = membrane (L), 1 = thin plate (L^2), 2 = L^3
   FairingWeights weights = FairingWeights::Cotangent;
+  //! Faces the operator treats as absent (e.g. the other side of a crease the patch was split
+  //! along, so each side is faired on its own and the crease stays sharp). Empty: none.
+  std::function<bool(FaceHandle)> ignore_face;
 };
 
 struct FairingReport {

@@ -12,8 +12,13 @@
 //! result would be non-manifold); a face whose normal opposes both neighbourhoods means the
 //! surfaces have opposite orientations; a degenerate face or one that intersects the mesh is
 //! refused. A refused stitch leaves the mesh unchanged.
-//! (The server and station wiring, the CLI and automatic gap detection are still to come.)
+//!
+//! Beyond the thesis, for automated clients: find_gaps() detects runs of boundary vertices that
+//! face runs of another boundary (or of a distant part of the same one) across the empty space,
+//! within a width, and zip_gap() closes such a gap with a zipper triangulation (advancing along
+//! both runs, always taking the shorter new diagonal), each triangle validated like a stitch.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -24,6 +29,9 @@ namespace touchmend::geometry {
 
 struct StitchOptions {
   bool check_intersections = true;
+  //! The mesh's longest edge if the caller knows it (the intersection search radius); 0 =
+  //! measured per stitch, O(mesh size).
+  double longest_edge = 0;
 };
 
 struct StitchResult {
@@ -54,5 +62,51 @@ struct GapBridgeResult {
 //! the stitches stay and the reason says so.
 GapBridgeResult bridge_gap(Mesh& mesh, const GapEnd& first, const GapEnd& second,
                            const FillOptions& fill = {}, const StitchOptions& stitch = {});
+
+//! Two boundary runs facing each other across the empty space.
+struct Gap {
+  std::uint32_t id = 0;                  //!< index in find_gaps' result (stable for one mesh state)
+  std::uint32_t hole_a = 0, hole_b = 0;  //!< ids of the boundary loops (equal: one loop)
+  //! run_a follows its loop's direction; run_b follows its own, so run_a.front() faces
+  //! run_b.back(). A run that is its whole loop is closed (cyclic).
+  std::vector<VertexHandle> run_a, run_b;
+  bool cyclic = false;  //!< both runs are whole loops (a band cut around a closed surface)
+  double mean_width = 0, max_width = 0;
+  double length = 0;  //!< along run_a
+};
+
+struct GapOptions {
+  //! Boundary vertices farther apart than this are not a gap; 0 = 3 x the mean boundary edge.
+  double max_width = 0;
+  //! Directions across the gap must agree within this angle with both sides' outward
+  //! (away from their faces, in the tangent plane) directions.
+  double facing_angle_deg = 60;
+  std::size_t min_run_edges = 2;  //!< shorter runs are not reported
+};
+
+std::vector<Gap> find_gaps(const Mesh& mesh, const std::vector<Hole>& holes,
+                           const GapOptions& options = {});
+
+struct ZipResult {
+  bool ok = false;
+  std::string reason;
+  std::vector<FaceHandle> faces;
+};
+
+//! Closes \p gap with a zipper triangulation. Each triangle is checked like a stitch (no
+//! flipped, non-manifold or intersecting face); on the first refusal the faces added so far are
+//! deleted again and the reason says where it stopped.
+ZipResult zip_gap(Mesh& mesh, const Gap& gap, const StitchOptions& options = {});
+
+struct DetectedGapBridge {
+  ZipResult zip;
+  std::vector<HoleFillReport> end_fills;  //!< the small holes left at the ends, filled
+};
+
+//! An automatic bridge: the zipper, then the small holes it leaves at the two ends of a
+//! non-cyclic gap (loops through the zipper's faces no longer than 4 gap widths plus the
+//! runs' end edges) closed by the hole filler.
+DetectedGapBridge bridge_detected_gap(Mesh& mesh, const Gap& gap, const FillOptions& fill = {},
+                                      const StitchOptions& options = {});
 
 }  // namespace touchmend::geometry

@@ -80,11 +80,35 @@ struct TopologyPatch {
   std::vector<std::array<int, 3>> triangles;
   std::size_t pieces = 1;
   std::size_t angles_closed = 0;
+  std::vector<int> piece_of_triangle;  //!< CreaseSplit: the region of each triangle
 };
 
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
-                          const LoopData& loop, const FillOptions& options, double longest_edge) {
+                          const LoopData& loop, const FillOptions& options, double longest_edge,
+                          const HoleCreasePlan* creases) {
   TopologyPatch out;
+  if (method == FillMethod::CreaseSplit) {
+    if (creases == nullptr || creases->curves.empty()) {
+      out.failure = "no crease crosses the hole";
+      return out;
+    }
+    CurveSplitInput in;
+    in.loop = loop.points;
+    in.opposite = loop.opposite;
+    in.blocked = loop.blocked;
+    in.normal = hole.is_simple ? hole.reference_normal : hole.normal;
+    in.curves = sample_plan_curves(*creases, hole.mean_edge_length);
+    in.corner = creases->corner;
+    in.max_dp_vertices = options.max_dp_vertices;
+    CurveSplitTriangulation t = triangulate_along_curves(in);
+    out.ok = t.ok;
+    out.failure = t.failure;
+    out.new_points = std::move(t.new_points);
+    out.triangles = std::move(t.triangles);
+    out.piece_of_triangle = std::move(t.piece_of_triangle);
+    out.pieces = t.pieces;
+    return out;
+  }
   if (method == FillMethod::Planar) {
     if (!hole.is_simple) {
       out.failure = "the boundary does not project onto a plane without self-intersection";
@@ -181,24 +205,28 @@ void remove_patch(Mesh& mesh, const std::vector<FaceHandle>& faces,
 //! cannot link yet (its fan not contiguous) is retried once its neighbours exist.
 bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch,
                   std::vector<FaceHandle>& faces, std::vector<VertexHandle>& vertices,
-                  std::string& why) {
+                  std::vector<int>& face_pieces, std::string& why) {
   std::vector<VertexHandle> pool(hole.loop.begin(), hole.loop.end());
   for (const Vec3& p : patch.new_points) {
     const VertexHandle v = mesh.add_vertex(p);
     pool.push_back(v);
     vertices.push_back(v);
   }
-  std::vector<std::array<int, 3>> pending = patch.triangles;
+  std::vector<std::size_t> pending(patch.triangles.size());
+  std::iota(pending.begin(), pending.end(), std::size_t{0});
   while (!pending.empty()) {
-    std::vector<std::array<int, 3>> retry;
-    for (const auto& t : pending) {
+    std::vector<std::size_t> retry;
+    for (const std::size_t i : pending) {
+      const auto& t = patch.triangles[i];
       const FaceHandle f =
           mesh.add_face(pool[static_cast<std::size_t>(t[0])], pool[static_cast<std::size_t>(t[1])],
                         pool[static_cast<std::size_t>(t[2])]);
-      if (f.is_valid())
+      if (f.is_valid()) {
         faces.push_back(f);
-      else
-        retry.push_back(t);
+        face_pieces.push_back(i < patch.piece_of_triangle.size() ? patch.piece_of_triangle[i] : 0);
+      } else {
+        retry.push_back(i);
+      }
     }
     if (retry.size() == pending.size()) {
       why =
@@ -207,6 +235,7 @@ bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch,
       remove_patch(mesh, faces, vertices);
       faces.clear();
       vertices.clear();
+      face_pieces.clear();
       return false;
     }
     pending = std::move(retry);
@@ -321,11 +350,79 @@ const char* to_string(FillMethod method) {
       return "piecewise";
     case FillMethod::MinimumWeight3d:
       return "minimum-weight-3d";
+    case FillMethod::CreaseSplit:
+      return "crease-split";
   }
   return "?";
 }
 
+const char* to_string(SharpMode mode) {
+  return mode == SharpMode::Auto ? "auto" : "off";
+}
+
+bool parse_sharp_mode(std::string_view text, SharpMode& mode) {
+  if (text == "auto")
+    mode = SharpMode::Auto;
+  else if (text == "off")
+    mode = SharpMode::Off;
+  else
+    return false;
+  return true;
+}
+
 namespace {
+
+//! CreaseSplit: each region between the crease curves is refined on its own (so no flip crosses
+//! a curve) and, when asked, faired on its own with the other regions treated as absent (so the
+//! bi-Laplacian does not round the crease off). \p flat_positions receives the positions of
+//! \p vertices before fairing.
+void refine_and_shape_pieces(Mesh& mesh, std::size_t pieces, std::vector<FaceHandle>& faces,
+                             const std::vector<int>& face_pieces,
+                             std::vector<VertexHandle>& vertices, std::vector<Vec3>& flat_positions,
+                             const FillOptions& options, HoleFillReport& report) {
+  std::vector<std::vector<FaceHandle>> piece_faces(pieces);
+  for (std::size_t i = 0; i < faces.size(); ++i)
+    piece_faces[static_cast<std::size_t>(face_pieces[i])].push_back(faces[i]);
+  std::vector<std::vector<VertexHandle>> piece_vertices(pieces);
+  const bool fair = options.creases.fair_pieces;
+  if (options.refine_iterations > 0) {
+    RefinementOptions ro;
+    ro.max_rounds = options.refine_iterations;
+    ro.keep_surface = !fair;
+    for (std::size_t p = 0; p < pieces; ++p) {
+      const RefinementReport rr = refine_patch(mesh, piece_faces[p], piece_vertices[p], ro);
+      report.refinement_rounds =
+          std::max(report.refinement_rounds, static_cast<std::size_t>(rr.rounds));
+      report.splits += rr.splits;
+      report.flips += rr.flips;
+    }
+  }
+  faces.clear();
+  for (const auto& list : piece_faces) faces.insert(faces.end(), list.begin(), list.end());
+  for (const auto& list : piece_vertices) vertices.insert(vertices.end(), list.begin(), list.end());
+  report.shape = PatchShape::Flat;
+  if (!fair) return;
+  for (const VertexHandle v : vertices) flat_positions.push_back(mesh.point(v));
+  std::vector<int> piece_of(mesh.n_faces(), -1);
+  for (std::size_t p = 0; p < pieces; ++p)
+    for (const FaceHandle f : piece_faces[p])
+      piece_of[static_cast<std::size_t>(f.idx())] = static_cast<int>(p);
+  bool all_ok = true;
+  for (std::size_t p = 0; p < pieces; ++p) {
+    if (piece_vertices[p].empty()) continue;
+    FairingOptions fo = options.fairing;
+    fo.ignore_face = [&piece_of, p](FaceHandle f) {
+      const int q = piece_of[static_cast<std::size_t>(f.idx())];
+      return q >= 0 && q != static_cast<int>(p);
+    };
+    const FairingReport fr = fair_vertices(mesh, piece_vertices[p], fo);
+    if (!fr.ok) {
+      all_ok = false;
+      report.warnings.push_back("fairing a region failed (" + fr.failure + "); it stays flat");
+    }
+  }
+  if (all_ok) report.shape = PatchShape::Fair;
+}
 
 //! fill_hole with the mesh's longest edge cached across holes (0: not known yet).
 HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
@@ -359,6 +456,14 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   const PatchShape shape = decision.shape;
   const std::string& shape_reason = decision.reason;
   std::vector<FillMethod> methods;
+  std::optional<HoleCreasePlan> creases;
+  if (options.explicit_creases) {
+    creases = options.explicit_creases;
+    report.creases = creases->summary;
+  } else if (options.sharp == SharpMode::Auto) {
+    creases = plan_hole_creases(mesh, hole, options.creases);
+    report.creases = creases->summary;
+  }
   if (!options.methods.empty())
     methods = options.methods;
   else if (decision.feature)
@@ -368,6 +473,8 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     methods = {FillMethod::Planar, FillMethod::MinimumWeight3d};
   else
     methods = {FillMethod::Piecewise, FillMethod::MinimumWeight3d};
+  if (creases && !creases->curves.empty() && options.methods.empty())
+    methods.insert(methods.begin(), FillMethod::CreaseSplit);
 
   std::vector<std::string> failures;
   for (const FillMethod method : methods) {
@@ -376,15 +483,17 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
                                      to_string(method), hole.loop.size(), options.max_dp_vertices));
       continue;
     }
-    TopologyPatch patch = triangulate(method, mesh, hole, loop, options, longest_edge);
+    TopologyPatch patch =
+        triangulate(method, mesh, hole, loop, options, longest_edge, creases ? &*creases : nullptr);
     if (!patch.ok) {
       failures.push_back(fmt::format("{}: {}", to_string(method), patch.failure));
       continue;
     }
     std::vector<FaceHandle> faces;
     std::vector<VertexHandle> vertices;
+    std::vector<int> face_pieces;
     std::string why;
-    if (!insert_patch(mesh, hole, patch, faces, vertices, why)) {
+    if (!insert_patch(mesh, hole, patch, faces, vertices, face_pieces, why)) {
       failures.push_back(fmt::format("{}: {}", to_string(method), why));
       continue;
     }
@@ -392,28 +501,37 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     attempt.method = method;
     attempt.pieces = patch.pieces;
     attempt.angles_closed = patch.angles_closed;
-    if (options.refine_iterations > 0) {
-      RefinementOptions ro;
-      ro.max_rounds = options.refine_iterations;
-      ro.keep_surface = shape == PatchShape::Flat;
-      const RefinementReport rr = refine_patch(mesh, faces, vertices, ro);
-      attempt.refinement_rounds = static_cast<std::size_t>(rr.rounds);
-      attempt.splits = rr.splits;
-      attempt.flips = rr.flips;
-    }
-    attempt.shape = PatchShape::Flat;
-    attempt.shape_reason = shape_reason;
     std::vector<Vec3> flat_positions;
-    if (shape == PatchShape::Fair) {
-      if (vertices.empty()) {
-        attempt.shape_reason = "no interior vertices to fair (" + shape_reason + ")";
-      } else {
-        for (const VertexHandle v : vertices) flat_positions.push_back(mesh.point(v));
-        const FairingReport fr = fair_vertices(mesh, vertices, options.fairing);
-        if (fr.ok) {
-          attempt.shape = PatchShape::Fair;
+    if (method == FillMethod::CreaseSplit) {
+      refine_and_shape_pieces(mesh, patch.pieces, faces, face_pieces, vertices, flat_positions,
+                              options, attempt);
+      attempt.crease_curves = creases->curves.size();
+      attempt.shape_reason =
+          fmt::format("split along {} crease curve{} ({})", creases->curves.size(),
+                      creases->curves.size() == 1 ? "" : "s", creases->summary);
+    } else {
+      if (options.refine_iterations > 0) {
+        RefinementOptions ro;
+        ro.max_rounds = options.refine_iterations;
+        ro.keep_surface = shape == PatchShape::Flat;
+        const RefinementReport rr = refine_patch(mesh, faces, vertices, ro);
+        attempt.refinement_rounds = static_cast<std::size_t>(rr.rounds);
+        attempt.splits = rr.splits;
+        attempt.flips = rr.flips;
+      }
+      attempt.shape = PatchShape::Flat;
+      attempt.shape_reason = shape_reason;
+      if (shape == PatchShape::Fair) {
+        if (vertices.empty()) {
+          attempt.shape_reason = "no interior vertices to fair (" + shape_reason + ")";
         } else {
-          attempt.warnings.push_back("fairing failed (" + fr.failure + "); the patch stays flat");
+          for (const VertexHandle v : vertices) flat_positions.push_back(mesh.point(v));
+          const FairingReport fr = fair_vertices(mesh, vertices, options.fairing);
+          if (fr.ok) {
+            attempt.shape = PatchShape::Fair;
+          } else {
+            attempt.warnings.push_back("fairing failed (" + fr.failure + "); the patch stays flat");
+          }
         }
       }
     }

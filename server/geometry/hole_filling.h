@@ -30,6 +30,7 @@
 #include "server/geometry/fairing.h"
 #include "server/geometry/holes.h"
 #include "server/geometry/mesh.h"
+#include "server/geometry/sharp_edges.h"
 
 namespace touchmend::geometry {
 
@@ -37,8 +38,14 @@ enum class PatchShape { Flat, Fair, Auto };
 const char* to_string(PatchShape shape);
 bool parse_patch_shape(std::string_view text, PatchShape& shape);
 
-enum class FillMethod { Planar, Piecewise, MinimumWeight3d };
+enum class FillMethod { Planar, Piecewise, MinimumWeight3d, CreaseSplit };
 const char* to_string(FillMethod method);
+
+//! Sharp-edge retaining without a device: `Auto` finds the creases that cross each hole and
+//! fills the hole split along them (sharp_edges.h), so the creases run through the patch.
+enum class SharpMode { Off, Auto };
+const char* to_string(SharpMode mode);
+bool parse_sharp_mode(std::string_view text, SharpMode& mode);
 
 struct FillOptions {
   int refine_iterations = 3;  //!< Algorithm III rounds (seed 000 §3.4.4: 1-5); 0 = none
@@ -55,6 +62,11 @@ struct FillOptions {
   double flat_max_normal_deviation_deg = 3.0;
   //! Auto shape: an edge whose faces meet at more than this is a crease (CAD feature).
   double feature_angle_deg = 35.0;
+  SharpMode sharp = SharpMode::Off;
+  CreaseOptions creases;  //!< detection and pairing for SharpMode::Auto
+  //! Curves given by the caller (picked points) instead of detected ones: used by the
+  //! CreaseSplit method whatever `sharp` says.
+  std::optional<HoleCreasePlan> explicit_creases;
 };
 
 struct HoleFillReport {
@@ -68,6 +80,8 @@ struct HoleFillReport {
   PatchShape shape = PatchShape::Flat;  //!< the shape actually applied
   std::string shape_reason;
   std::size_t pieces = 1;
+  std::string creases;  //!< SharpMode::Auto: what crosses the hole and what was done with it
+  std::size_t crease_curves = 0;  //!< curves the patch was split along
   std::size_t angles_closed = 0;
   std::size_t refinement_rounds = 0;
   std::size_t splits = 0;

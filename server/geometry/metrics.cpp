@@ -72,6 +72,28 @@ SurfaceDistance surface_distance(std::span<const TrianglePoints> a,
   return d;
 }
 
+SegmentDistance segment_distance(std::span<const std::array<Vec3, 2>> segments,
+                                 std::span<const TrianglePoints> triangles, double spacing) {
+  SegmentDistance d;
+  if (segments.empty() || triangles.empty() || !(spacing > 0)) return d;
+  const TriangleBvh bvh(std::vector<TrianglePoints>(triangles.begin(), triangles.end()));
+  double weighted = 0, weight = 0;
+  for (const auto& s : segments) {
+    const double length = (s[1] - s[0]).norm();
+    const int k = std::clamp(static_cast<int>(std::ceil(length / spacing)), 1, 1000);
+    for (int i = 0; i <= k; ++i) {
+      const Vec3 p = s[0] + (s[1] - s[0]) * (static_cast<double>(i) / k);
+      const double dist = std::sqrt(bvh.closest_point(p).distance2);
+      d.max = std::max(d.max, dist);
+      weighted += length / (k + 1) * dist;
+      weight += length / (k + 1);
+    }
+  }
+  d.mean = weight > 0 ? weighted / weight : 0;
+  d.valid = true;
+  return d;
+}
+
 TriangleQuality triangle_quality(std::span<const TrianglePoints> triangles) {
   TriangleQuality q;
   for (const TrianglePoints& t : triangles) {

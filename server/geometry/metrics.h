@@ -4,6 +4,7 @@
 //! \brief Fill quality metrics shared by the tests, the benchmarks and (later) the server,
 //! with the definitions of DESIGN.md "Quality metrics" and ALGORITHMS.md §11.1.
 
+#include <array>
 #include <cstddef>
 #include <span>
 #include <vector>
@@ -29,6 +30,17 @@ struct SurfaceDistance {
 
 SurfaceDistance surface_distance(std::span<const TrianglePoints> a,
                                  std::span<const TrianglePoints> b, double spacing);
+
+//! Distance from line segments (sampled at \p spacing, ends included) to a triangle set: the
+//! sharp-edge fidelity of ALGORITHMS.md §11.1 (ground-truth crease edges to the fill).
+struct SegmentDistance {
+  double max = 0;
+  double mean = 0;     //!< length-weighted
+  bool valid = false;  //!< false when either set is empty
+};
+
+SegmentDistance segment_distance(std::span<const std::array<Vec3, 2>> segments,
+                                 std::span<const TrianglePoints> triangles, double spacing);
 
 struct TriangleQuality {
   double min_angle_deg = 180;

@@ -26,6 +26,19 @@ ReferenceFrame ReferenceFrame::from_normal(const Vec3& normal, const Vec3& origi
   return f;
 }
 
+bool point_in_polygon(std::span<const Point2> polygon, const Point2& p) {
+  bool inside = false;
+  const std::size_t n = polygon.size();
+  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+    const Point2& a = polygon[i];
+    const Point2& b = polygon[j];
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+      inside = !inside;
+  }
+  return inside;
+}
+
 double signed_area(std::span<const Point2> polygon) {
   double a = 0;
   const std::size_t n = polygon.size();
@@ -95,19 +108,6 @@ std::size_t count_self_intersections(std::span<const Point2> polygon) {
 }
 
 namespace {
-
-bool point_in_polygon(std::span<const Point2> polygon, const Point2& p) {
-  bool inside = false;
-  const std::size_t n = polygon.size();
-  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
-    const Point2& a = polygon[i];
-    const Point2& b = polygon[j];
-    if ((a.y() > p.y()) != (b.y() > p.y()) &&
-        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
-      inside = !inside;
-  }
-  return inside;
-}
 
 double distance_to_segment(const Point2& p, const Point2& a, const Point2& b) {
   const Point2 ab = b - a;

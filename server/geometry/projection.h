@@ -52,6 +52,9 @@ ProjectabilityReport test_projectable(std::span<const Vec3> loop,
                                       std::span<const Vec3> outside_points,
                                       const ReferenceFrame& frame, double tolerance);
 
+//! Whether \p p lies inside the closed 2D polygon (even-odd rule).
+bool point_in_polygon(std::span<const Point2> polygon, const Point2& p);
+
 //! Signed area of a 2D polygon (positive when counter-clockwise).
 double signed_area(std::span<const Point2> polygon);
 

@@ -5,28 +5,10 @@
 #include <deque>
 #include <numbers>
 
+#include "server/geometry/face_set.h"
+
 namespace touchmend::geometry {
 namespace {
-
-//! Membership of faces in the patch, indexed by face index.
-class PatchSet {
- public:
-  explicit PatchSet(const std::vector<FaceHandle>& faces) {
-    for (const FaceHandle f : faces) insert(f);
-  }
-  void insert(FaceHandle f) {
-    const auto i = static_cast<std::size_t>(f.idx());
-    if (i >= member_.size()) member_.resize(i + 1 + member_.size() / 2, 0);
-    member_[i] = 1;
-  }
-  bool contains(FaceHandle f) const {
-    const auto i = static_cast<std::size_t>(f.idx());
-    return f.is_valid() && i < member_.size() && member_[i] != 0;
-  }
-
- private:
-  std::vector<char> member_;
-};
 
 //! Inside the smallest sphere through a, b, c (its centre lies in the triangle's plane).
 bool inside_smallest_sphere(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p) {
@@ -40,13 +22,13 @@ bool inside_smallest_sphere(const Vec3& a, const Vec3& b, const Vec3& c, const V
   return (p - center).sqrnorm() < r2 * (1 - 1e-9);
 }
 
-bool is_interior_patch_edge(const Mesh& mesh, EdgeHandle e, const PatchSet& patch) {
+bool is_interior_patch_edge(const Mesh& mesh, EdgeHandle e, const FaceSet& patch) {
   const HalfedgeHandle h0 = mesh.halfedge_handle(e, 0), h1 = mesh.halfedge_handle(e, 1);
   return patch.contains(mesh.face_handle(h0)) && patch.contains(mesh.face_handle(h1));
 }
 
 //! Flip edge e if the circumsphere test asks for it and the flip is admissible.
-bool relax_edge(Mesh& mesh, EdgeHandle e, const PatchSet& patch, bool keep_surface) {
+bool relax_edge(Mesh& mesh, EdgeHandle e, const FaceSet& patch, bool keep_surface) {
   if (!is_interior_patch_edge(mesh, e, patch)) return false;
   const HalfedgeHandle h0 = mesh.halfedge_handle(e, 0), h1 = mesh.halfedge_handle(e, 1);
   const VertexHandle vi = mesh.from_vertex_handle(h0), vj = mesh.to_vertex_handle(h0);
@@ -74,7 +56,7 @@ bool relax_edge(Mesh& mesh, EdgeHandle e, const PatchSet& patch, bool keep_surfa
   return true;
 }
 
-std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, const PatchSet& patch,
+std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, const FaceSet& patch,
                            int max_passes, bool keep_surface) {
   // Every patch edge is tested once; a flip queues the four edges around the new diagonal
   // again (only they can have become non-Delaunay). Same result as repeated full passes, but
@@ -116,7 +98,7 @@ std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, con
 
 std::size_t relax_patch_edges(Mesh& mesh, const std::vector<FaceHandle>& patch_faces,
                               int max_passes, bool keep_surface) {
-  const PatchSet patch(patch_faces);
+  const FaceSet patch(patch_faces);
   return relax_pass_all(mesh, patch_faces, patch, max_passes, keep_surface);
 }
 
@@ -124,7 +106,7 @@ RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
                               std::vector<VertexHandle>& new_vertices,
                               const RefinementOptions& options) {
   RefinementReport report;
-  PatchSet patch(patch_faces);
+  FaceSet patch(patch_faces);
   std::vector<double> sigma(mesh.n_vertices(), 0.0);
   auto sigma_of = [&](VertexHandle v) -> double& {
     const auto i = static_cast<std::size_t>(v.idx());

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <set>
 #include <sstream>
 
@@ -118,6 +119,30 @@ std::vector<geometry::TrianglePoints> ground_truth(const HoleCase& c, const Case
   return out;
 }
 
+std::vector<std::array<geometry::Vec3, 2>> ground_truth_creases(const HoleCase& c,
+                                                                const CaseHole& hole,
+                                                                double sharp_deg) {
+  // Each undirected edge of the removed faces with its two face normals.
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<geometry::Vec3>> edges;
+  for (const std::uint32_t f : hole.original_faces) {
+    const auto& t = c.original.triangles.at(f);
+    const geometry::Vec3 n = OpenMesh::cross(c.original.points[t[1]] - c.original.points[t[0]],
+                                             c.original.points[t[2]] - c.original.points[t[0]])
+                                 .normalize_cond();
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = t[static_cast<std::size_t>(k)],
+                          b = t[static_cast<std::size_t>((k + 1) % 3)];
+      edges[{std::min(a, b), std::max(a, b)}].push_back(n);
+    }
+  }
+  std::vector<std::array<geometry::Vec3, 2>> out;
+  const double limit = std::cos(sharp_deg * std::numbers::pi / 180.0);
+  for (const auto& [edge, normals] : edges)
+    if (normals.size() == 2 && OpenMesh::dot(normals[0], normals[1]) < limit)
+      out.push_back({c.original.points[edge.first], c.original.points[edge.second]});
+  return out;
+}
+
 std::optional<std::uint32_t> matching_hole_id(const std::vector<geometry::Hole>& holes,
                                               const CaseHole& hole) {
   const std::set<std::uint32_t> wanted(hole.loop_holed.begin(), hole.loop_holed.end());
@@ -178,6 +203,10 @@ HoleScore score_fill(const geometry::Mesh& mesh, const geometry::HoleFillReport&
   s.quality = geometry::triangle_quality(fill_triangles);
   s.hausdorff_permille = 1000 * s.distance.hausdorff / c.diagonal;
   s.mean_permille = 1000 * s.distance.mean / c.diagonal;
+  const auto creases = ground_truth_creases(c, hole);
+  const geometry::SegmentDistance crease =
+      geometry::segment_distance(creases, fill_triangles, 0.002 * c.diagonal);
+  if (crease.valid) s.crease_permille = 1000 * crease.max / c.diagonal;
   return s;
 }
 

@@ -4,6 +4,7 @@
 //! \brief Loader for the hole cases in ../shared/data/cases (holed mesh, original mesh, per-hole
 //! ground truth) and per-hole fill scoring with the shared metrics module.
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -47,6 +48,12 @@ std::optional<HoleCase> load_case(const std::string& name, std::string& error);
 //! Ground-truth triangles of one hole.
 std::vector<geometry::TrianglePoints> ground_truth(const HoleCase& c, const CaseHole& hole);
 
+//! Sharp edges of the ground truth: edges of the original mesh with both faces removed for this
+//! hole whose faces meet at more than \p sharp_deg (the referee's definition, 60°).
+std::vector<std::array<geometry::Vec3, 2>> ground_truth_creases(const HoleCase& c,
+                                                                const CaseHole& hole,
+                                                                double sharp_deg = 60.0);
+
 //! The id (find_holes numbering) of the mesh hole whose loop has the case hole's vertex set.
 std::optional<std::uint32_t> matching_hole_id(const std::vector<geometry::Hole>& holes,
                                               const CaseHole& hole);
@@ -56,6 +63,7 @@ struct HoleScore {
   geometry::TriangleQuality quality;
   double hausdorff_permille = 0;  //!< / diagonal x 1000
   double mean_permille = 0;
+  double crease_permille = -1;  //!< ground-truth creases to the fill, max; -1: no crease
 };
 
 //! The anchors' numbers for one hole from BASELINE.md's per-hole table (per mille of the

@@ -5,6 +5,9 @@
 #include <numbers>
 #include <unordered_map>
 
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_io.h"
+
 namespace touchmend::testing {
 
 MeshSoup grid(int nx, int ny, const std::function<double(double, double)>& height) {
@@ -138,6 +141,26 @@ MeshSoup remove_faces(const MeshSoup& soup, const std::function<bool(const Vec3&
     out.triangles.push_back(nt);
   }
   return out;
+}
+
+MeshSoup cube_with_hole(int n, const Vec3& centre, double radius) {
+  return remove_faces(cube(n), [&](const Vec3& c) { return (c - centre).norm() < radius; });
+}
+
+MeshSoup two_plates(int n, double gap) {
+  MeshSoup soup = grid(n, n);
+  const MeshSoup right = grid(n, n);
+  const auto offset = static_cast<std::uint32_t>(soup.points.size());
+  for (const Vec3& p : right.points) soup.points.push_back(p + Vec3(n + gap, 0, 0));
+  for (const auto& t : right.triangles)
+    soup.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  return soup;
+}
+
+std::string to_off(const MeshSoup& soup) {
+  std::string off;
+  geometry::serialize_mesh(geometry::build_mesh(soup).mesh, geometry::MeshFormat::Off, {}, off);
+  return off;
 }
 
 MeshSoup subdivide_midpoint(const MeshSoup& soup) {

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "server/geometry/mesh.h"
@@ -37,6 +38,17 @@ MeshSoup annulus(int inner, double r_in, int rings, double ring_width);
 //! indices). Returns the removed triangles' corner positions via \p removed if given.
 MeshSoup remove_faces(const MeshSoup& soup, const std::function<bool(const Vec3& centroid)>& remove,
                       std::vector<std::array<Vec3, 3>>* removed = nullptr);
+
+//! The cube [0, n]³ with the faces whose centroid lies within \p radius of \p centre removed
+//! (a hole across an edge or a corner when the centre is on one).
+MeshSoup cube_with_hole(int n, const Vec3& centre, double radius);
+
+//! Two n x n-cell grids in z = 0 facing +z, the second shifted by n + gap along x: two
+//! registered surfaces with a straight gap (left vertex (x, y) = y(n+1)+x, right = (n+1)² + that).
+MeshSoup two_plates(int n, double gap);
+
+//! \p soup as OFF text (through the mesh builder, as a client would upload it).
+std::string to_off(const MeshSoup& soup);
 
 //! 1-to-4 midpoint subdivision (same surface, twice the boundary vertices).
 MeshSoup subdivide_midpoint(const MeshSoup& soup);

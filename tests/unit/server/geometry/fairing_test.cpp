@@ -52,8 +52,10 @@ TEST(Fairing, UniformWeightsAndMembraneAlsoSolve) {
   for (const auto weights : {FairingWeights::Uniform, FairingWeights::Cotangent})
     for (int continuity : {0, 1, 2}) {
       CapFill f = flat_cap_fill();
-      const FairingReport r =
-          fair_vertices(f.mesh, f.free, {.continuity = continuity, .weights = weights});
+      FairingOptions options;
+      options.continuity = continuity;
+      options.weights = weights;
+      const FairingReport r = fair_vertices(f.mesh, f.free, options);
       EXPECT_TRUE(r.ok) << r.failure;
       for (const auto v : f.free) EXPECT_TRUE(std::isfinite(f.mesh.point(v)[0]));
     }

@@ -108,8 +108,7 @@ TEST(FillHole, HoleOnASphereIsFairedBackOntoIt) {
 }
 
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
-  const MeshSoup s = remove_faces(testing::cube(8),
-                                  [](const Vec3& c) { return (c - Vec3(8, 4, 8)).norm() < 2.2; });
+  const MeshSoup s = testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2);
   const FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
   ASSERT_EQ(run.reports.size(), 1u);
   const HoleFillReport& r = run.reports[0];

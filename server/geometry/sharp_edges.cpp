@@ -1,0 +1,557 @@
+#include "server/geometry/sharp_edges.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <set>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+
+#include "server/geometry/liepa_triangulation.h"
+#include "server/geometry/planar_triangulation.h"
+#include "server/geometry/projection.h"
+
+namespace touchmend::geometry {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+double dihedral_deg(const Mesh& mesh, HalfedgeHandle h) {
+  const Vec3 a = mesh.calc_face_normal(mesh.face_handle(h));
+  const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
+  return std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) / kDeg;
+}
+
+bool is_sharp(const Mesh& mesh, HalfedgeHandle h, double threshold_deg) {
+  if (mesh.is_boundary(mesh.edge_handle(h))) return false;
+  return dihedral_deg(mesh, h) > threshold_deg;
+}
+
+double angle_between(const Vec3& a, const Vec3& b) {
+  return std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b));
+}
+
+//! Follows the crease from the boundary vertex along \p first away from the hole: at each
+//! vertex the sharp edge that continues straightest (turning less than 60°), until the length
+//! budget, another boundary or the end of the crease.
+std::vector<Vec3> trace_crease(const Mesh& mesh, HalfedgeHandle first, double threshold_deg,
+                               double max_length) {
+  std::vector<Vec3> points{mesh.point(mesh.from_vertex_handle(first)),
+                           mesh.point(mesh.to_vertex_handle(first))};
+  double length = (points[1] - points[0]).norm();
+  VertexHandle previous = mesh.from_vertex_handle(first);
+  VertexHandle current = mesh.to_vertex_handle(first);
+  std::set<int> visited{previous.idx(), current.idx()};
+  while (length < max_length && points.size() < 64 && !mesh.is_boundary(current)) {
+    const Vec3 direction = (mesh.point(current) - mesh.point(previous)).normalize_cond();
+    HalfedgeHandle best;
+    double best_cos = std::cos(60.0 * kDeg);
+    for (const HalfedgeHandle h : mesh.voh_range(current)) {
+      const VertexHandle w = mesh.to_vertex_handle(h);
+      if (w == previous || visited.count(w.idx()) || !is_sharp(mesh, h, threshold_deg)) continue;
+      const double c =
+          OpenMesh::dot((mesh.point(w) - mesh.point(current)).normalize_cond(), direction);
+      if (c > best_cos) {
+        best_cos = c;
+        best = h;
+      }
+    }
+    if (!best.is_valid()) break;
+    previous = current;
+    current = mesh.to_vertex_handle(best);
+    visited.insert(current.idx());
+    points.push_back(mesh.point(current));
+    length += (points.back() - points[points.size() - 2]).norm();
+  }
+  return points;
+}
+
+//! Tangent at points[0] pointing along the polyline: least-squares fit of
+//! p(s) = p0 + a s + b s² over the points within \p fit_length of arc length.
+Vec3 fitted_tangent(const std::vector<Vec3>& points, double fit_length) {
+  double s = 0;
+  Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+  Eigen::Matrix<double, 2, 3> rhs = Eigen::Matrix<double, 2, 3>::Zero();
+  std::size_t used = 0;
+  for (std::size_t i = 1; i < points.size(); ++i) {
+    s += (points[i] - points[i - 1]).norm();
+    if (s > fit_length && used >= 1) break;
+    const Vec3 d = points[i] - points[0];
+    normal(0, 0) += s * s;
+    normal(0, 1) += s * s * s;
+    normal(1, 1) += s * s * s * s;
+    for (int c = 0; c < 3; ++c) {
+      rhs(0, c) += s * d[c];
+      rhs(1, c) += s * s * d[c];
+    }
+    ++used;
+  }
+  Vec3 tangent(0, 0, 0);
+  if (used >= 2) {
+    normal(1, 0) = normal(0, 1);
+    const Eigen::Matrix<double, 2, 3> ab = normal.ldlt().solve(rhs);
+    tangent = Vec3(ab(0, 0), ab(0, 1), ab(0, 2));
+  }
+  if (!(tangent.norm() > 0) || !std::isfinite(tangent.norm()))
+    tangent = points.size() > 1 ? points[1] - points[0] : Vec3(0, 0, 0);
+  return tangent.normalize_cond();
+}
+
+//! The angle at which direction \p d leaves the boundary vertex \p b, counter-clockwise from
+//! the next boundary edge, and the hole's corner angle there, both in the tangent plane of the
+//! surface at b (normal \p normal): a global projection distorts the angles at a cube corner.
+std::pair<double, double> wedge_angles(const Vec3& normal, const Vec3& prev, const Vec3& b,
+                                       const Vec3& next, const Vec3& d) {
+  const ReferenceFrame frame = ReferenceFrame::from_normal(normal, b);
+  const Point2 pa = frame.project(prev), pb = frame.project(b), pc = frame.project(next);
+  const Point2 u = pc - pb;
+  const Point2 d2(OpenMesh::dot(d, frame.e1), OpenMesh::dot(d, frame.e2));
+  double phi = std::atan2(u.x() * d2.y() - u.y() * d2.x(), u.dot(d2));
+  if (phi < 0) phi += 2 * std::numbers::pi;
+  return {phi, interior_angle(pa, pb, pc)};
+}
+
+Vec3 vertex_normal(const Mesh& mesh, VertexHandle v) {
+  Vec3 n(0, 0, 0);
+  for (const FaceHandle f : mesh.vf_range(v)) n += mesh.calc_face_normal(f);
+  return n.normalize_cond();
+}
+
+//! Point nearest (least squares) to the lines x = B_i + t d_i.
+std::optional<Vec3> nearest_point_to_lines(const std::vector<Vec3>& origins,
+                                           const std::vector<Vec3>& directions) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < origins.size(); ++i) {
+    const Eigen::Vector3d d(directions[i][0], directions[i][1], directions[i][2]);
+    const Eigen::Vector3d o(origins[i][0], origins[i][1], origins[i][2]);
+    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
+    m += p;
+    r += p * o;
+  }
+  // Nearly parallel lines have no well-defined nearest point.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(m, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d values = eigen.eigenvalues();  // ascending
+  if (!(values(0) > 1e-6 * values(2))) return std::nullopt;
+  const Eigen::Vector3d x = m.ldlt().solve(r);
+  if (!x.allFinite()) return std::nullopt;
+  return Vec3(x.x(), x.y(), x.z());
+}
+
+bool interleaved(std::size_t a, std::size_t b, std::size_t c, std::size_t d) {
+  if (a > b) std::swap(a, b);
+  if (c > d) std::swap(c, d);
+  return (a < c && c < b && b < d) || (c < a && a < d && d < b);
+}
+
+}  // namespace
+
+HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const CreaseOptions& options) {
+  HoleCreasePlan plan;
+  const std::size_t n = hole.loop.size();
+  if (n < 3) return plan;
+  const double diameter = hole.perimeter / std::numbers::pi;
+  const double fit_length = std::max(options.fit_length * diameter, 2.5 * hole.mean_edge_length);
+  const Vec3 normal = hole.is_simple ? hole.reference_normal : hole.normal;
+  const ReferenceFrame frame = ReferenceFrame::from_normal(normal, hole.centroid);
+  std::vector<Point2> polygon;
+  for (const VertexHandle v : hole.loop) polygon.push_back(frame.project(mesh.point(v)));
+
+  // Weaker sharp edges are candidates too, but only as partners of a strong crossing.
+  const double weak_angle = options.partner_angle_deg;
+  std::vector<CreaseCrossing> found;
+  for (std::size_t i = 0; i < n; ++i) {
+    const VertexHandle b = hole.loop[i];
+    const VertexHandle prev = hole.loop[(i + n - 1) % n];
+    const VertexHandle next = hole.loop[(i + 1) % n];
+    for (const HalfedgeHandle h : mesh.voh_range(b)) {
+      const VertexHandle w = mesh.to_vertex_handle(h);
+      if (w == prev || w == next || !is_sharp(mesh, h, weak_angle)) continue;
+      const std::vector<Vec3> polyline = trace_crease(mesh, h, weak_angle, 4.0 * fit_length);
+      const Vec3 outward = fitted_tangent(polyline, fit_length);
+      if (!(outward.norm() > 0)) continue;
+      const Vec3 inward = -outward;
+      const auto [phi, corner] = wedge_angles(vertex_normal(mesh, b), mesh.point(prev),
+                                              mesh.point(b), mesh.point(next), inward);
+      // Strictly inside the hole's corner at b (a crease along the boundary is not a crossing).
+      if (!(std::min(phi, corner - phi) > 0.0)) continue;
+      CreaseCrossing c;
+      c.loop_index = i;
+      c.vertex = b;
+      c.position = mesh.point(b);
+      c.inward = inward;
+      c.far_point = c.position - fit_length * inward;
+      c.dihedral_deg = dihedral_deg(mesh, h);
+      // Convex (a ridge) when the face on one side sees the other side's far vertex below it.
+      const FaceHandle f0 = mesh.face_handle(h);
+      const VertexHandle across =
+          mesh.to_vertex_handle(mesh.next_halfedge_handle(mesh.opposite_halfedge_handle(h)));
+      c.convex = OpenMesh::dot(mesh.calc_face_normal(f0), mesh.point(across) - c.position) < 0;
+      c.traced_edges = polyline.size() - 1;
+      found.push_back(c);
+    }
+  }
+
+  // Clean pairs first, best (smallest worst angle) first, never interleaving in loop order. A
+  // pair needs one strong end (over the crease angle; the other may be weaker, as a rounded scan
+  // crease fades towards a hole) and one kind of fold: a ridge does not continue as a valley.
+  const std::size_t m = found.size();
+  const auto strong = [&](std::size_t i) {
+    return found[i].dihedral_deg > options.crease_angle_deg;
+  };
+  struct Candidate {
+    double score;
+    std::size_t a, b;
+  };
+  std::vector<Candidate> candidates;
+  for (std::size_t a = 0; a < m; ++a)
+    for (std::size_t b = a + 1; b < m; ++b) {
+      const CreaseCrossing& ca = found[a];
+      const CreaseCrossing& cb = found[b];
+      const Vec3 chord = cb.position - ca.position;
+      if (ca.loop_index == cb.loop_index || !(chord.norm() > 0) || ca.convex != cb.convex ||
+          !(strong(a) || strong(b)))
+        continue;
+      candidates.push_back(
+          {std::max(angle_between(ca.inward, chord), angle_between(cb.inward, -chord)), a, b});
+    }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const Candidate& x, const Candidate& y) { return x.score < y.score; });
+  std::set<std::size_t> used_vertices;
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  auto try_pair = [&](const Candidate& c, double limit) {
+    const std::size_t la = found[c.a].loop_index, lb = found[c.b].loop_index;
+    if (used_vertices.count(la) || used_vertices.count(lb) || c.score > limit) return;
+    for (const auto& [x, y] : pairs)
+      if (interleaved(la, lb, found[x].loop_index, found[y].loop_index)) return;
+    used_vertices.insert(la);
+    used_vertices.insert(lb);
+    pairs.emplace_back(c.a, c.b);
+  };
+  // Strong crossings no pair took, the best (sharpest) per boundary vertex.
+  const auto leftovers = [&] {
+    std::map<std::size_t, std::size_t> best;  // loop index -> crossing
+    for (std::size_t i = 0; i < m; ++i) {
+      if (!strong(i) || used_vertices.count(found[i].loop_index)) continue;
+      const auto it = best.find(found[i].loop_index);
+      if (it == best.end() || found[i].dihedral_deg > found[it->second].dihedral_deg)
+        best[found[i].loop_index] = i;
+    }
+    std::vector<std::size_t> out;
+    for (const auto& [index, crossing] : best) out.push_back(crossing);
+    return out;
+  };
+  for (const Candidate& c : candidates) try_pair(c, options.pair_angle_deg * kDeg);
+  std::vector<std::size_t> left = leftovers();
+  // One or two strong crossings left (a single crease, maybe strongly curved in the hole): a
+  // looser tangent agreement will do.
+  if (left.size() == 1 || left.size() == 2) {
+    for (const Candidate& c : candidates) try_pair(c, options.loose_pair_angle_deg * kDeg);
+    left = leftovers();
+  }
+  // Report only the crossings that matter: those the curves use and strong ones left over.
+  std::map<std::size_t, std::size_t> kept;  // index in found -> index in plan.crossings
+  const auto keep = [&](std::size_t i) {
+    const auto [it, added] = kept.emplace(i, plan.crossings.size());
+    if (added) plan.crossings.push_back(found[i]);
+    return it->second;
+  };
+  for (auto& [a, b] : pairs) {
+    a = keep(a);
+    b = keep(b);
+  }
+  for (std::size_t& i : left) i = keep(i);
+  const std::size_t reported = plan.crossings.size();
+
+  const double tolerance = 1e-9 * std::max(diameter, 1e-300);
+  for (const auto& [a, b] : pairs) {
+    const CreaseCrossing& ca = plan.crossings[a];
+    const CreaseCrossing& cb = plan.crossings[b];
+    CreaseCurve curve;
+    curve.from = a;
+    curve.to = b;
+    curve.points = {ca.far_point, ca.position, cb.position, cb.far_point};
+    const HermiteCurveResult r = make_hermite_curve(curve.points, options.hermite, tolerance);
+    if (!r.curve) continue;
+    curve.curve = *r.curve;
+    plan.curves.push_back(curve);
+  }
+
+  if (left.size() >= 3) {
+    std::vector<Vec3> origins, directions;
+    for (const std::size_t i : left) {
+      origins.push_back(plan.crossings[i].position);
+      directions.push_back(plan.crossings[i].inward);
+    }
+    std::optional<Vec3> corner = nearest_point_to_lines(origins, directions);
+    // The corner must lie ahead of every crease and inside the hole's projection.
+    if (corner) {
+      for (std::size_t k = 0; k < left.size() && corner; ++k) {
+        const Vec3 to_corner = *corner - origins[k];
+        const double along = OpenMesh::dot(to_corner, directions[k]);
+        const double off_line = (to_corner - along * directions[k]).norm();
+        if (along <= 0 || off_line > options.corner_tolerance * diameter) corner.reset();
+      }
+      if (corner && !point_in_polygon(polygon, frame.project(*corner))) corner.reset();
+    }
+    if (corner) {
+      plan.corner = corner;
+      for (const std::size_t i : left) {
+        const CreaseCrossing& c = plan.crossings[i];
+        const Vec3 chord = *corner - c.position;
+        const Vec3 unit = Vec3(chord).normalize_cond();
+        // Arrive as a circular arc would: the start tangent mirrored about the chord.
+        const Vec3 end_direction = 2.0 * OpenMesh::dot(c.inward, unit) * unit - c.inward;
+        CreaseCurve curve;
+        curve.from = i;
+        curve.points = {c.far_point, c.position, *corner, *corner + chord.norm() * end_direction};
+        const HermiteCurveResult r = make_hermite_curve(curve.points, options.hermite, tolerance);
+        if (!r.curve) continue;
+        curve.curve = *r.curve;
+        plan.curves.push_back(curve);
+      }
+      left.clear();
+    }
+  }
+  plan.unmatched = left;
+  plan.summary = fmt::format("{} crease crossings, {} curves{}{}", reported, plan.curves.size(),
+                             plan.corner ? " meeting at a corner" : "",
+                             left.empty() ? "" : fmt::format(", {} unmatched", left.size()));
+  return plan;
+}
+
+std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& plan,
+                                                       double segment_length) {
+  std::vector<CurveSplitInput::Curve> out;
+  for (const CreaseCurve& c : plan.curves) {
+    CurveSplitInput::Curve curve;
+    curve.from = static_cast<int>(plan.crossings[c.from].loop_index);
+    curve.to = c.to ? static_cast<int>(plan.crossings[*c.to].loop_index) : -1;
+    const std::vector<CurveSample> samples = sample_by_arc_length(c.curve, segment_length);
+    for (std::size_t i = 1; i + 1 < samples.size(); ++i) curve.interior.push_back(samples[i].point);
+    out.push_back(std::move(curve));
+  }
+  return out;
+}
+
+namespace {
+
+//! Triangulates one region (pool indices, hole on the left).
+bool triangulate_region(const std::vector<int>& region, const std::vector<Vec3>& pool,
+                        const CurveSplitInput& input,
+                        const std::vector<std::pair<int, int>>& shared_pairs,
+                        std::vector<std::array<int, 3>>& triangles, std::string& failure) {
+  const int loop_n = static_cast<int>(input.loop.size());
+  const std::size_t k = region.size();
+  std::vector<Vec3> points;
+  std::vector<Vec3> opposite;
+  for (std::size_t i = 0; i < k; ++i) points.push_back(pool[static_cast<std::size_t>(region[i])]);
+  for (std::size_t i = 0; i < k; ++i) {
+    const int a = region[i], b = region[(i + 1) % k];
+    // A boundary edge of the hole has a mesh triangle across it; a curve edge has the other
+    // region, still unknown: its midpoint makes the edge free in the dihedral weight.
+    if (a < loop_n && b == (a + 1) % loop_n)
+      opposite.push_back(input.opposite[static_cast<std::size_t>(a)]);
+    else
+      opposite.push_back(0.5 * (points[i] + points[(i + 1) % k]));
+  }
+  std::map<int, int> local;
+  for (std::size_t i = 0; i < k; ++i) local[region[i]] = static_cast<int>(i);
+  std::vector<std::pair<int, int>> blocked;
+  std::vector<std::pair<int, int>> all_pairs(input.blocked.begin(), input.blocked.end());
+  all_pairs.insert(all_pairs.end(), shared_pairs.begin(), shared_pairs.end());
+  for (const auto& [a, b] : all_pairs) {
+    const auto ia = local.find(a), ib = local.find(b);
+    if (ia == local.end() || ib == local.end()) continue;
+    const int x = ia->second, y = ib->second;
+    const int gap = std::abs(x - y);
+    if (gap == 1 || gap == static_cast<int>(k) - 1) continue;
+    blocked.emplace_back(x, y);
+  }
+  auto emit = [&](const std::vector<std::array<int, 3>>& local_triangles) {
+    for (const auto& t : local_triangles)
+      triangles.push_back({region[static_cast<std::size_t>(t[0])],
+                           region[static_cast<std::size_t>(t[1])],
+                           region[static_cast<std::size_t>(t[2])]});
+  };
+  LiepaTriangulationOptions dp;
+  dp.max_vertices = input.max_dp_vertices;
+  const LiepaTriangulation t = triangulate_min_dihedral(points, opposite, blocked, dp);
+  if (t.ok) {
+    emit(t.triangles);
+    return true;
+  }
+  Vec3 newell(0, 0, 0), centroid(0, 0, 0);
+  for (std::size_t i = 0; i < k; ++i) {
+    newell += OpenMesh::cross(points[i], points[(i + 1) % k]);
+    centroid += points[i] / static_cast<double>(k);
+  }
+  const ReferenceFrame frame = ReferenceFrame::from_normal(newell, centroid);
+  std::vector<Point2> polygon;
+  for (const Vec3& p : points) polygon.push_back(frame.project(p));
+  if (count_self_intersections(polygon) == 0 && signed_area(polygon) > 0) {
+    const PlanarTriangulation p = triangulate_planar(polygon, blocked);
+    if (p.ok) {
+      emit(p.triangles);
+      return true;
+    }
+    failure = p.failure;
+    return false;
+  }
+  failure = t.failure;
+  return false;
+}
+
+}  // namespace
+
+CurveSplitTriangulation triangulate_along_curves(const CurveSplitInput& input) {
+  CurveSplitTriangulation out;
+  const int loop_n = static_cast<int>(input.loop.size());
+  if (loop_n < 3) {
+    out.failure = "fewer than 3 boundary vertices";
+    return out;
+  }
+  std::vector<Vec3> pool(input.loop.begin(), input.loop.end());
+  auto add_point = [&](const Vec3& p) {
+    pool.push_back(p);
+    out.new_points.push_back(p);
+    return static_cast<int>(pool.size()) - 1;
+  };
+  int corner = -1;
+  if (input.corner) corner = add_point(*input.corner);
+  // Undirected adjacency of the graph: boundary edges and curve edges.
+  std::map<int, std::set<int>> neighbours;
+  for (int i = 0; i < loop_n; ++i) {
+    neighbours[i].insert((i + 1) % loop_n);
+    neighbours[(i + 1) % loop_n].insert(i);
+  }
+  std::set<std::pair<int, int>> directed;  // half-edges with a region on their left
+  std::vector<std::pair<int, int>> shared_pairs;
+  for (int i = 0; i < loop_n; ++i) directed.insert({i, (i + 1) % loop_n});
+  for (const auto& curve : input.curves) {
+    if (curve.from < 0 || curve.from >= loop_n || curve.to >= loop_n ||
+        (curve.to < 0 && corner < 0) || curve.from == curve.to) {
+      out.failure = "a curve does not start and end on the hole boundary";
+      return out;
+    }
+    std::vector<int> chain{curve.from};
+    for (const Vec3& p : curve.interior) chain.push_back(add_point(p));
+    chain.push_back(curve.to >= 0 ? curve.to : corner);
+    // Two nodes of one curve lie on both regions beside it: an edge between them in both
+    // would have four faces, so neither region may join them.
+    for (std::size_t x = 0; x < chain.size(); ++x)
+      for (std::size_t y = x + 2; y < chain.size(); ++y)
+        shared_pairs.emplace_back(chain[x], chain[y]);
+    if (chain.size() == 2 && neighbours[chain[0]].count(chain[1])) {
+      out.failure = "a curve joins two neighbouring boundary vertices";
+      return out;
+    }
+    for (std::size_t i = 0; i + 1 < chain.size(); ++i) {
+      const int a = chain[i], b = chain[i + 1];
+      if (!directed.insert({a, b}).second || !directed.insert({b, a}).second) {
+        out.failure = "two curves share an edge";
+        return out;
+      }
+      neighbours[a].insert(b);
+      neighbours[b].insert(a);
+      out.curve_edges.emplace_back(a, b);
+    }
+  }
+  // Faces of the planar graph, traced combinatorially (a projection can fold curves of a hole
+  // around a corner over each other). Around a boundary vertex i the hole's side runs
+  // counter-clockwise from i+1 to i-1, and a curve to j comes before one to k when j is nearer
+  // i+1 along the loop; around the corner the curves come in loop order. Leaving v after
+  // arriving from u, the region on the left continues to u's clockwise neighbour at v.
+  std::map<int, std::vector<int>> ccw;  // node -> neighbours counter-clockwise
+  {
+    std::map<int, std::vector<std::pair<int, int>>> curve_starts;  // loop vertex -> (key, nbr)
+    std::vector<std::pair<int, int>> corner_members;               // (loop index, nbr)
+    int next_new = loop_n + (corner >= 0 ? 1 : 0);
+    for (const auto& curve : input.curves) {
+      const int k = static_cast<int>(curve.interior.size());
+      const int first = k > 0 ? next_new : (curve.to >= 0 ? curve.to : corner);
+      const int last = k > 0 ? next_new + k - 1 : curve.from;
+      const int forward = curve.to >= 0 ? ((curve.to - curve.from) % loop_n + loop_n) % loop_n
+                                        : loop_n;  // a corner curve: after the others
+      curve_starts[curve.from].emplace_back(forward, first);
+      if (curve.to >= 0) {
+        const int back = ((curve.from - curve.to) % loop_n + loop_n) % loop_n;
+        curve_starts[curve.to].emplace_back(back, last);
+      } else {
+        corner_members.emplace_back(curve.from, last);
+      }
+      for (int j = 0; j < k; ++j) {
+        const int node = next_new + j;
+        const int before = j == 0 ? curve.from : node - 1;
+        const int after = j + 1 < k ? node + 1 : (curve.to >= 0 ? curve.to : corner);
+        ccw[node] = {before, after};
+      }
+      next_new += k;
+    }
+    for (int i = 0; i < loop_n; ++i) {
+      std::vector<int>& order = ccw[i];
+      order.push_back((i + 1) % loop_n);
+      auto starts = curve_starts[i];
+      std::sort(starts.begin(), starts.end());
+      for (const auto& [key, neighbour] : starts) order.push_back(neighbour);
+      order.push_back((i + loop_n - 1) % loop_n);
+    }
+    if (corner >= 0) {
+      std::sort(corner_members.begin(), corner_members.end());
+      for (const auto& [index, neighbour] : corner_members) ccw[corner].push_back(neighbour);
+    }
+  }
+  auto next_after = [&](int u, int v) {
+    const std::vector<int>& order = ccw[v];
+    const auto it = std::find(order.begin(), order.end(), u);
+    if (it == order.end() || order.size() < 2) return -1;
+    const std::size_t at = static_cast<std::size_t>(it - order.begin());
+    return order[(at + order.size() - 1) % order.size()];
+  };
+  std::set<std::pair<int, int>> remaining = directed;
+  std::vector<std::vector<int>> regions;
+  while (!remaining.empty()) {
+    const auto start = *remaining.begin();
+    std::vector<int> region;
+    auto edge = start;
+    while (true) {
+      if (!remaining.erase(edge)) {
+        out.failure = "the curves do not split the hole into regions (they cross or leave it)";
+        return out;
+      }
+      region.push_back(edge.first);
+      const int w = next_after(edge.first, edge.second);
+      if (w < 0) {
+        out.failure = "a curve ends inside the hole";
+        return out;
+      }
+      edge = {edge.second, w};
+      if (edge == start) break;
+      if (region.size() > pool.size() * 2) {
+        out.failure = "region tracing did not close";
+        return out;
+      }
+    }
+    if (region.size() < 3) {
+      out.failure = "two curves enclose no area";
+      return out;
+    }
+    regions.push_back(std::move(region));
+  }
+  for (std::size_t r = 0; r < regions.size(); ++r) {
+    std::string why;
+    if (!triangulate_region(regions[r], pool, input, shared_pairs, out.triangles, why)) {
+      out.failure = fmt::format("region {} of {}: {}", r + 1, regions.size(), why);
+      out.triangles.clear();
+      return out;
+    }
+    out.piece_of_triangle.resize(out.triangles.size(), static_cast<int>(r));
+  }
+  out.pieces = regions.size();
+  out.ok = true;
+  return out;
+}
+
+}  // namespace touchmend::geometry

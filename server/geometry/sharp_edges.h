@@ -1,0 +1,122 @@
+#pragma once
+
+//! \file sharp_edges.h
+//! \brief Creases across a hole, found with no device: the sharp edges that enter and leave a
+//! hole, paired into Hermite curves (seed 000 §4.2.1) or extended to a common corner, and the
+//! split of the hole along those curves into pieces that are filled on their own (the variant of
+//! ALGORITHMS.md §3.5, after Ngo & Lee 2011): the crease is in the patch by construction.
+//!
+//! \details Beyond the thesis, whose four points are picked by hand (§4.1). Detection: an edge
+//! whose faces meet at more than `crease_angle_deg` is sharp; from every hole boundary vertex
+//! with a sharp edge the crease polyline is traced away from the hole (straightest sharp
+//! continuation) and its tangent at the boundary is fitted by least squares on a quadratic in
+//! arc length, so a curved crease keeps its curvature's first order. A crossing counts when that
+//! tangent, continued into the hole, lies inside the hole's corner at the boundary vertex.
+//! Pairing: two crossings whose tangents agree with the chord between them (each within
+//! `pair_angle_deg`) are joined by the Hermite curve P1 P2 -> P3 P4; three or more crossings left
+//! over meet at the least-squares intersection of their tangent lines (a corner, e.g. a cube
+//! corner cut by the hole); two left over are joined if their tangents are at least
+//! `loose_pair_angle_deg` consistent. Everything not joined is reported.
+
+#include <array>
+#include <optional>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "server/geometry/hermite_curve.h"
+#include "server/geometry/holes.h"
+#include "server/geometry/mesh.h"
+
+namespace touchmend::geometry {
+
+struct CreaseOptions {
+  double crease_angle_deg = 50;      //!< an edge whose faces meet at more than this is sharp
+  double pair_angle_deg = 35;        //!< tangent vs chord, both ends, for a clean pair
+  double loose_pair_angle_deg = 65;  //!< the same for the last two crossings left over
+  //! A weaker sharp edge (over this angle) may continue a crease whose other end is sharp.
+  double partner_angle_deg = 30;
+  //! Three or more creases meet at a corner only if their tangent lines pass within this
+  //! fraction of the hole diameter of a common point.
+  double corner_tolerance = 0.1;
+  //! Arc length of the crease used for the tangent fit, in hole diameters (perimeter / π).
+  double fit_length = 0.5;
+  HermiteOptions hermite;
+  //! Fair each region between the curves on its own (bi-Laplacian, the other regions treated
+  //! as absent; a patch that would then intersect the mesh stays flat). Off by default: flat
+  //! regions keep the creases closer on the *_sharp cases (README "Sharp edges").
+  bool fair_pieces = false;
+};
+
+//! Where a crease of the surrounding surface meets the hole boundary.
+struct CreaseCrossing {
+  std::size_t loop_index = 0;  //!< index into Hole::loop
+  VertexHandle vertex;
+  Vec3 position{0, 0, 0};
+  Vec3 inward{0, 0, 0};     //!< unit tangent continuing the crease into the hole
+  Vec3 far_point{0, 0, 0};  //!< a point on the tangent line outside the hole (P1 or P4)
+  double dihedral_deg = 0;  //!< at the sharp edge leaving the boundary vertex
+  bool convex = false;      //!< the two faces fold away from each other (a ridge)
+  std::size_t traced_edges = 0;
+};
+
+//! One feature curve through the hole: between two crossings, or from a crossing to the corner.
+struct CreaseCurve {
+  std::size_t from = 0;           //!< crossing index
+  std::optional<std::size_t> to;  //!< crossing index; none: ends at the plan's corner
+  HermitePoints points;           //!< P1..P4 of the curve (seed 000 Fig. 4.2)
+  HermiteCurve curve;
+};
+
+struct HoleCreasePlan {
+  std::vector<CreaseCrossing> crossings;
+  std::vector<CreaseCurve> curves;
+  std::optional<Vec3> corner;
+  std::vector<std::size_t> unmatched;  //!< crossings that no curve uses
+  std::string summary;                 //!< one line for reports
+};
+
+//! The creases at the boundary of \p hole (properties computed) and how they cross it.
+HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
+                                 const CreaseOptions& options = {});
+
+//! A hole loop with curves through it, as the split triangulation needs it (points only).
+struct CurveSplitInput {
+  std::span<const Vec3> loop;      //!< hole on the left of i -> i+1
+  std::span<const Vec3> opposite;  //!< third vertex across boundary edge i (midpoint if none)
+  std::span<const std::pair<int, int>> blocked;  //!< loop pairs joined by a mesh edge outside
+  Vec3 normal{0, 0, 1};  //!< projection direction for the region split (the hole's normal)
+  //! Each curve: loop index of its start, loop index of its end or -1 for the corner, and its
+  //! points strictly between the ends.
+  struct Curve {
+    int from = 0;
+    int to = -1;
+    std::vector<Vec3> interior;
+  };
+  std::vector<Curve> curves;
+  std::optional<Vec3> corner;
+  std::size_t max_dp_vertices = 400;
+};
+
+struct CurveSplitTriangulation {
+  bool ok = false;
+  std::string failure;
+  std::vector<Vec3> new_points;               //!< pool index = loop.size() + i
+  std::vector<std::array<int, 3>> triangles;  //!< pool indices, oriented like the loop
+  std::vector<int> piece_of_triangle;         //!< which region each triangle fills
+  std::size_t pieces = 0;
+  std::vector<std::pair<int, int>> curve_edges;  //!< pool index pairs along the curves
+};
+
+//! Splits the hole along the curves (a planar graph traced face by face in the projection along
+//! \p normal) and triangulates every region by the 3D minimum-dihedral triangulation (the
+//! curve edges count as free, so each side only follows its own neighbours); a region it cannot
+//! close falls back to Algorithm II on its own plane.
+CurveSplitTriangulation triangulate_along_curves(const CurveSplitInput& input);
+
+//! The curves of \p plan sampled at \p segment_length, as split input curves.
+std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& plan,
+                                                       double segment_length);
+
+}  // namespace touchmend::geometry

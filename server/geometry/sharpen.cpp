@@ -1,0 +1,182 @@
+#include "server/geometry/sharpen.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "server/geometry/bvh.h"
+#include "server/geometry/mesh_intersections.h"
+
+namespace touchmend::geometry {
+namespace {
+
+//! Closest point on the faces around the hole (the thesis warns that a pick on a badly oriented
+//! triangle biases the curve, seed 000 §5.1: the picks are put on the surface first).
+struct SurfaceSnapper {
+  std::vector<TrianglePoints> triangles;
+  TriangleBvh bvh;
+  SurfaceSnapper(const Mesh& mesh, const Hole& hole, double radius) {
+    Box3 box;
+    for (const VertexHandle v : hole.loop) {
+      const Vec3& p = mesh.point(v);
+      box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+    }
+    box.min().array() -= radius;
+    box.max().array() += radius;
+    for (const FaceHandle f : faces_in_box(mesh, box, max_edge_length(mesh))) {
+      TrianglePoints t;
+      int k = 0;
+      for (const VertexHandle v : mesh.fv_range(f))
+        t[static_cast<std::size_t>(k++)] = mesh.point(v);
+      triangles.push_back(t);
+    }
+    bvh = TriangleBvh(triangles);
+  }
+  std::optional<Vec3> snap(const Vec3& p, double max_distance) const {
+    if (triangles.empty()) return std::nullopt;
+    const TriangleBvh::Closest c = bvh.closest_point(p);
+    if (!c.found || std::sqrt(c.distance2) > max_distance) return std::nullopt;
+    return c.point;
+  }
+};
+
+std::size_t nearest_loop_index(const Mesh& mesh, const Hole& hole, const Vec3& p) {
+  std::size_t best = 0;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < hole.loop.size(); ++i) {
+    const double d = (mesh.point(hole.loop[i]) - p).sqrnorm();
+    if (d < best_d) {
+      best_d = d;
+      best = i;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+const char* to_string(SharpenMethod method) {
+  return method == SharpenMethod::Split ? "split" : "push-down";
+}
+
+SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& picks,
+                           const SharpenOptions& options) {
+  SharpenResult result;
+  const double diameter = std::max(hole.perimeter / std::numbers::pi, 1e-300);
+  const double tolerance = 1e-9 * diameter;
+  const SurfaceSnapper snapper(mesh, hole, options.max_pick_distance * diameter);
+  HermitePoints p;
+  const Vec3* in[4] = {&picks.p1, &picks.p2, &picks.p3, &picks.p4};
+  Vec3* out[4] = {&p.p1, &p.p2, &p.p3, &p.p4};
+  for (int i = 0; i < 4; ++i) {
+    const Vec3& q = *in[i];
+    if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2])) {
+      result.failure = fmt::format("P{} is not a finite point", i + 1);
+      return result;
+    }
+    const auto snapped = snapper.snap(q, options.max_pick_distance * diameter);
+    if (!snapped) {
+      result.failure = fmt::format(
+          "P{} ({:.6g}, {:.6g}, {:.6g}) is not on the surface around hole {} (farther than {} "
+          "hole diameters)",
+          i + 1, q[0], q[1], q[2], hole.id, options.max_pick_distance);
+      return result;
+    }
+    *out[i] = *snapped;
+  }
+  if (options.method == SharpenMethod::Split) {
+    // The curve must end on the boundary: P2 and P3 go to their nearest boundary vertices.
+    const std::size_t i2 = nearest_loop_index(mesh, hole, p.p2);
+    const std::size_t i3 = nearest_loop_index(mesh, hole, p.p3);
+    if (i2 == i3) {
+      result.failure = "P2 and P3 are nearest to the same boundary vertex";
+      return result;
+    }
+    p.p2 = mesh.point(hole.loop[i2]);
+    p.p3 = mesh.point(hole.loop[i3]);
+    const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
+    if (!curve.curve) {
+      result.failure = curve.failure;
+      return result;
+    }
+    HoleCreasePlan plan;
+    CreaseCrossing a, b;
+    a.loop_index = i2;
+    a.vertex = hole.loop[i2];
+    a.position = p.p2;
+    b.loop_index = i3;
+    b.vertex = hole.loop[i3];
+    b.position = p.p3;
+    plan.crossings = {a, b};
+    plan.curves.push_back({0, 1, p, *curve.curve});
+    plan.summary = "the picked curve";
+    FillOptions fill = options.fill;
+    fill.explicit_creases = plan;
+    fill.methods = {FillMethod::CreaseSplit};
+    result.points = p;
+    result.fill = fill_hole(mesh, hole, fill);
+    if (!result.fill.filled) {
+      result.failure = "the hole could not be filled along the curve: " + result.fill.reason;
+      return result;
+    }
+    result.patch = result.fill.new_faces;
+    result.ok = true;
+    return result;
+  }
+
+  const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
+  if (!curve.curve) {
+    result.failure = curve.failure;
+    return result;
+  }
+  result.points = p;
+  result.fill = fill_hole(mesh, hole, options.fill);
+  if (!result.fill.filled) {
+    result.failure = "the hole could not be filled: " + result.fill.reason;
+    return result;
+  }
+  SharpEdgeState state;
+  state.patch = result.fill.new_faces;
+  for (const VertexHandle v : hole.loop) state.boundary.insert(v.idx());
+  // The curtain must cut every patch triangle above and below the curve (ALGORITHMS.md §3.2).
+  const Vec3 normal = hole.is_simple ? hole.reference_normal : hole.normal;
+  double reach = 0;
+  for (const FaceHandle f : state.patch)
+    for (const VertexHandle v : mesh.fv_range(f))
+      reach = std::max(reach, std::abs(OpenMesh::dot(mesh.point(v) - p.p2, normal)));
+  state.guide = make_guide_surface(*curve.curve, normal, hole.mean_edge_length,
+                                   std::max(diameter, 3 * reach));
+  result.snap = snap_to_guide(mesh, state, options.snap);
+  if (state.on_guide.empty()) {
+    result.failure =
+        "the Hermite curve does not cross the filled patch (seen along the hole normal): pick P2 "
+        "and P3 on the hole's rim where the crease meets it";
+    for (const FaceHandle f : state.patch)
+      if (!mesh.status(f).deleted()) mesh.delete_face(f, true);
+    return result;
+  }
+  PushOptions push;
+  push.depth = options.depth;
+  result.pushed = push_all(mesh, state, push);
+  if (options.smooth) result.smooth = smooth_by_normal_propagation(mesh, state);
+  result.guide = state.guide;
+  result.patch.clear();
+  for (const FaceHandle f : state.patch)
+    if (!mesh.status(f).deleted()) result.patch.push_back(f);
+  if (options.fill.check_intersections &&
+      !find_face_intersections(mesh, result.patch, 1, max_edge_length(mesh)).empty()) {
+    result.failure =
+        "the retained edge makes the patch intersect the mesh (check the picked points and the "
+        "depth)";
+    // The caller asked for a sharp edge, not a plain fill: leave the hole as it was.
+    for (const FaceHandle f : result.patch)
+      if (!mesh.status(f).deleted()) mesh.delete_face(f, true);
+    return result;
+  }
+  result.ok = true;
+  return result;
+}
+
+}  // namespace touchmend::geometry

@@ -1,0 +1,174 @@
+// touchmend-sharp-bench: on the *_sharp cases of ../shared/data/cases, every hole filled by the
+// plain auto fill and by the sharp-edge-retaining variants, scored against the ground truth:
+// Hausdorff and mean distance of the patch, and the crease distance (ground-truth sharp edges
+// to the patch, ALGORITHMS.md §11.1), all in per mille of the bounding-box diagonal.
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <OpenMesh/Core/System/omstream.hh>
+#include <fmt/format.h>
+
+#include "server/geometry/hole_filling.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/sharpen.h"
+#include "tests/support/cases.h"
+
+namespace tmd = touchmend;
+namespace geo = touchmend::geometry;
+
+namespace {
+
+struct Variant {
+  std::string name;
+  geo::FillOptions options;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  omerr().disable();
+  omout().disable();
+  omlog().disable();
+  CLI::App app{"Sharp-edge retaining over the *_sharp cases: plain fill vs --sharp auto"};
+  std::vector<std::string> only;
+  double crease_angle = 50;
+  app.add_option("--cases", only, "Only these cases (default: every case whose name has _sharp)");
+  app.add_option("--crease-angle", crease_angle, "Dihedral angle of a crease (degrees)");
+  bool verbose = false;
+  app.add_flag("--verbose", verbose, "Print each hole's crease crossings and fill warnings");
+  CLI11_PARSE(app, argc, argv);
+
+  std::vector<Variant> variants;
+  variants.push_back({"fill (auto shape)", {}});
+  geo::FillOptions split;
+  split.sharp = geo::SharpMode::Auto;
+  split.creases.crease_angle_deg = crease_angle;
+  split.creases.fair_pieces = false;
+  variants.push_back({"sharp auto: split, flat regions", split});
+  split.creases.fair_pieces = true;
+  variants.push_back({"sharp auto: split, faired regions", split});
+
+  std::vector<tmd::testing::HoleCase> cases;
+  for (const std::string& name : tmd::testing::list_cases()) {
+    if (only.empty() ? name.find("_sharp") == std::string::npos
+                     : std::find(only.begin(), only.end(), name) == only.end())
+      continue;
+    std::string error;
+    if (auto c = tmd::testing::load_case(name, error))
+      cases.push_back(std::move(*c));
+    else
+      fmt::print(stderr, "skip {}: {}\n", name, error);
+  }
+  fmt::print("| case | hole | variant | method | creases | H ‰ | mean ‰ | crease H ‰ | ms |\n");
+  fmt::print("|---|---|---|---|---|---|---|---|---|\n");
+  std::vector<double> worst_crease(variants.size(), 0);
+  for (const tmd::testing::HoleCase& loaded : cases) {
+    const std::string& name = loaded.name;
+    const tmd::testing::HoleCase* c = &loaded;
+    for (std::size_t vi = 0; vi < variants.size(); ++vi) {
+      geo::Mesh mesh = geo::build_mesh(c->holed).mesh;
+      const auto holes = geo::find_holes(mesh).holes;
+      const geo::FillReport report = geo::fill_holes(mesh, {}, variants[vi].options);
+      for (const auto& ch : c->holes) {
+        const auto id = tmd::testing::matching_hole_id(holes, ch);
+        const geo::HoleFillReport* r = nullptr;
+        for (const auto& h : report.holes)
+          if (id && h.hole_id == *id) r = &h;
+        if (r == nullptr || !r->filled) {
+          fmt::print("| {} | {} | {} | OPEN | {} | - | - | - | - |\n", name, ch.id,
+                     variants[vi].name, r ? r->reason : "not found");
+          continue;
+        }
+        const auto score = tmd::testing::score_fill(mesh, *r, *c, ch);
+        if (verbose) {
+          for (const auto& w : r->warnings) fmt::print("    warning: {}\n", w);
+          if (vi == 0) {
+            geo::Mesh fresh = geo::build_mesh(c->holed).mesh;
+            const auto found = geo::find_holes(fresh).holes;
+            for (const auto& h : found)
+              if (h.id == *id) {
+                geo::CreaseOptions co;
+                co.crease_angle_deg = crease_angle;
+                const auto plan = geo::plan_hole_creases(fresh, h, co);
+                for (const auto& x : plan.crossings)
+                  fmt::print(
+                      "    crossing at loop {} ({:.3f} {:.3f} {:.3f}) inward ({:.2f} {:.2f} "
+                      "{:.2f}) dihedral {:.0f} {} traced {}\n",
+                      x.loop_index, x.position[0], x.position[1], x.position[2], x.inward[0],
+                      x.inward[1], x.inward[2], x.dihedral_deg, x.convex ? "convex" : "concave",
+                      x.traced_edges);
+                for (const auto& e : tmd::testing::ground_truth_creases(*c, ch))
+                  fmt::print("    gt crease ({:.3f} {:.3f} {:.3f}) - ({:.3f} {:.3f} {:.3f})\n",
+                             e[0][0], e[0][1], e[0][2], e[1][0], e[1][1], e[1][2]);
+              }
+          }
+        }
+        worst_crease[vi] = std::max(worst_crease[vi], score.crease_permille);
+        fmt::print("| {} | {} | {} | {}/{} | {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} |\n", name,
+                   ch.id, variants[vi].name, geo::to_string(r->method), geo::to_string(r->shape),
+                   r->creases.empty() ? "-" : r->creases, score.hausdorff_permille,
+                   score.mean_permille, score.crease_permille, 1e3 * r->seconds);
+      }
+    }
+  }
+  // Picked points: the four points of the first crease pair the detection finds (what an
+  // operator would pick along the visible crease), through both sharpen variants.
+  fmt::print(
+      "\n| case | hole | picked-points variant | result | H ‰ | mean ‰ | crease H ‰ | ms |\n");
+  fmt::print("|---|---|---|---|---|---|---|---|\n");
+  for (const tmd::testing::HoleCase& loaded : cases) {
+    const std::string& name = loaded.name;
+    const tmd::testing::HoleCase* c = &loaded;
+    for (const auto& ch : c->holes) {
+      for (const geo::SharpenMethod method :
+           {geo::SharpenMethod::PushDown, geo::SharpenMethod::Split}) {
+        geo::Mesh mesh = geo::build_mesh(c->holed).mesh;
+        const auto holes = geo::find_holes(mesh).holes;
+        const auto id = tmd::testing::matching_hole_id(holes, ch);
+        if (!id) continue;
+        const geo::Hole& hole = holes[*geo::find_hole_by_id(holes, *id)];
+        geo::CreaseOptions co;
+        co.crease_angle_deg = crease_angle;
+        const geo::HoleCreasePlan plan = geo::plan_hole_creases(mesh, hole, co);
+        const geo::CreaseCurve* pair = nullptr;
+        for (const auto& curve : plan.curves)
+          if (curve.to && pair == nullptr) pair = &curve;
+        if (pair == nullptr) {
+          fmt::print("| {} | {} | {} | no crease pair to pick | - | - | - | - |\n", name, ch.id,
+                     geo::to_string(method));
+          continue;
+        }
+        geo::SharpenOptions so;
+        so.method = method;
+        const auto start = std::chrono::steady_clock::now();
+        const geo::SharpenResult r = geo::sharpen_hole(mesh, hole, pair->points, so);
+        const double ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                .count();
+        if (!r.ok) {
+          fmt::print("| {} | {} | {} | FAILED: {} | - | - | - | - |\n", name, ch.id,
+                     geo::to_string(method), r.failure);
+          continue;
+        }
+        geo::HoleFillReport as_fill = r.fill;
+        as_fill.new_faces = r.patch;
+        const auto score = tmd::testing::score_fill(mesh, as_fill, *c, ch);
+        fmt::print(
+            "| {} | {} | {} | snapped {} split {} pushed {} smoothed {} | {:.2f} | {:.2f} | "
+            "{:.2f} | {:.2f} |\n",
+            name, ch.id, geo::to_string(method), r.snap.moved, r.snap.splits, r.pushed,
+            r.smooth.moved, score.hausdorff_permille, score.mean_permille, score.crease_permille,
+            ms);
+      }
+    }
+  }
+
+  fmt::print("\nworst crease distance per variant (‰ of the diagonal):\n");
+  for (std::size_t vi = 0; vi < variants.size(); ++vi)
+    fmt::print("  {}: {:.2f}\n", variants[vi].name, worst_crease[vi]);
+  return 0;
+}

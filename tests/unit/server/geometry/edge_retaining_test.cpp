@@ -1,0 +1,198 @@
+// Sharp-edge retaining on a filled hole (seed 000 §4.2, Algorithms V-VII): the guiding surface
+// and curtain coordinates, snapping, the push-down step (stops at the curve; with a depth,
+// past it; refuses without motion or off the patch), smoothing by normal propagation, and the
+// whole sharpen pipeline (both variants) on a hole across a cube's edge.
+
+#include "server/geometry/edge_retaining.h"
+
+#include <algorithm>
+
+#include <gtest/gtest.h>
+
+#include "server/geometry/hole_filling.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_intersections.h"
+#include "server/geometry/metrics.h"
+#include "server/geometry/sharpen.h"
+#include "tests/support/mesh_factory.h"
+
+namespace touchmend::geometry {
+namespace {
+
+HermiteCurve straight(const Vec3& a, const Vec3& b) {
+  const auto r = make_hermite_curve({a - (b - a), a, b, b + (b - a)}, {}, 1e-12);
+  return *r.curve;
+}
+
+TEST(GuideSurface, CurtainCoordinatesAreCurveParameterAndHeight) {
+  const GuideSurface g = make_guide_surface(straight({0, 0, 0}, {4, 0, 0}), {0, 0, 1}, 1.0, 2.0);
+  ASSERT_EQ(g.samples.size(), 5u);
+  EXPECT_EQ(g.triangles().size(), 8u);
+  const auto c = curtain_coordinates(g, {2.5, 0, 0.75}, 1e-9);
+  ASSERT_TRUE(c);
+  EXPECT_NEAR(c->t, 2.5, 1e-12);  // polyline parameter: segment 2, halfway
+  EXPECT_NEAR(c->s, 0.75, 1e-12);
+  EXPECT_EQ(c->side, 1);
+  EXPECT_FALSE(curtain_coordinates(g, {2.5, 0.5, 0}, 1e-3));  // off the curtain
+}
+
+//! A flat 6x6 grid with the middle 2x2 cells cut out and filled (flat), so the patch has
+//! interior vertices after refinement; the state knows the patch and the boundary.
+struct FilledGrid {
+  Mesh mesh;
+  SharpEdgeState state;
+};
+
+FilledGrid filled_grid(int refine = 3) {
+  FilledGrid g;
+  g.mesh = build_mesh(testing::remove_faces(testing::grid(6, 6), [](const Vec3& c) {
+             return c[0] > 2 && c[0] < 4 && c[1] > 2 && c[1] < 4;
+           })).mesh;
+  const auto holes = find_holes(g.mesh).holes;
+  const Hole* inner = nullptr;
+  for (const Hole& h : holes)
+    if (h.loop.size() == 8) inner = &h;
+  FillOptions fill;
+  fill.shape = PatchShape::Flat;
+  fill.refine_iterations = refine;
+  const HoleFillReport r = fill_hole(g.mesh, *inner, fill);
+  EXPECT_TRUE(r.filled);
+  g.state.patch = r.new_faces;
+  for (const VertexHandle v : inner->loop) g.state.boundary.insert(v.idx());
+  return g;
+}
+
+TEST(SnapToGuide, PutsVerticesOnTheCurtainAndChainsThem) {
+  FilledGrid g = filled_grid();
+  // A curve across the hole from (2, 3) to (4, 3) (boundary midpoints of the left and right
+  // sides), curtain along +z.
+  g.state.guide = make_guide_surface(straight({2, 3, 0}, {4, 3, 0}), {0, 0, 1}, 0.5, 1.0);
+  const SnapReport r = snap_to_guide(g.mesh, g.state);
+  EXPECT_GT(r.crossings, 0u);
+  EXPECT_FALSE(g.state.on_guide.empty());
+  for (const auto& [index, c] : g.state.on_guide) {
+    const Vec3 p = g.mesh.point(VertexHandle(index));
+    EXPECT_NEAR(p[1], 3.0, 1e-9) << "vertex " << index << " not on the curtain y = 3";
+    EXPECT_FALSE(g.state.boundary.count(index));
+  }
+  // No patch edge crosses the curtain any more.
+  for (const FaceHandle f : g.state.patch)
+    for (const HalfedgeHandle h : g.mesh.fh_range(f)) {
+      const double y0 = g.mesh.point(g.mesh.from_vertex_handle(h))[1] - 3;
+      const double y1 = g.mesh.point(g.mesh.to_vertex_handle(h))[1] - 3;
+      EXPECT_FALSE((y0 > 1e-9 && y1 < -1e-9) || (y0 < -1e-9 && y1 > 1e-9));
+    }
+  EXPECT_TRUE(validate_mesh(g.mesh).is_clean());
+}
+
+TEST(PushDown, StepsToTheCurveAndStopsOrGoesToTheDepth) {
+  FilledGrid g = filled_grid();
+  // The curve 0.5 below the flat patch: pushing moves curtain vertices down to z = -0.5.
+  g.state.guide = make_guide_surface(straight({2, 3, -0.5}, {4, 3, -0.5}), {0, 0, 1}, 0.5, 2.0);
+  snap_to_guide(g.mesh, g.state);
+  ASSERT_FALSE(g.state.on_guide.empty());
+  const auto [index, c] = *g.state.on_guide.begin();
+  EXPECT_NEAR(c.s, 0.5, 1e-9);
+  const VertexHandle v(index);
+  FaceHandle touched;
+  for (const FaceHandle f : g.mesh.vf_range(v)) touched = f;
+  const Vec3 proxy = g.mesh.point(v) + Vec3(0, 0, 0.01);
+  PushOptions push;
+  push.step = 0.2;
+  PushResult r = push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
+  ASSERT_TRUE(r.moved) << r.why_not;
+  EXPECT_EQ(r.vertex, v);
+  EXPECT_NEAR(g.mesh.point(v)[2], -0.2, 1e-9);
+  EXPECT_FALSE(r.at_limit);
+  for (int i = 0; i < 5; ++i)
+    push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
+  EXPECT_NEAR(g.mesh.point(v)[2], -0.5, 1e-9);  // stopped at the curve
+  // The vertex is at the curve: the next curtain vertex of the face moves instead, and once
+  // all of them are there the push is refused.
+  for (int i = 0; i < 20; ++i)
+    push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
+  r = push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
+  EXPECT_FALSE(r.moved);
+  EXPECT_NE(r.why_not.find("already at the curve"), std::string::npos) << r.why_not;
+  push.depth = 0.3;  // past the curve by at most 0.3
+  for (int i = 0; i < 5; ++i)
+    push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
+  EXPECT_NEAR(g.mesh.point(v)[2], -0.8, 1e-9);
+  EXPECT_TRUE(g.state.moved.count(index));
+  // Refusals: no motion, a face outside the patch, a zero step.
+  EXPECT_FALSE(push_down(g.mesh, g.state, proxy, proxy, touched, push).moved);
+  EXPECT_FALSE(push_down(g.mesh, g.state, proxy, proxy - Vec3(1, 0, 0), FaceHandle(0), push).moved);
+  push.step = 0;
+  EXPECT_FALSE(push_down(g.mesh, g.state, proxy, proxy - Vec3(1, 0, 0), touched, push).moved);
+}
+
+TEST(SmoothByNormalPropagation, BringsABumpBackToThePlaneOfItsSurroundings) {
+  FilledGrid g = filled_grid();
+  // Interior vertices: split every patch face at its centroid.
+  const std::vector<FaceHandle> original = g.state.patch;
+  for (const FaceHandle f : original) {
+    Vec3 c(0, 0, 0);
+    for (const VertexHandle v : g.mesh.fv_range(f)) c += g.mesh.point(v) / 3.0;
+    const VertexHandle nv = g.mesh.split(f, c);
+    for (const FaceHandle nf : g.mesh.vf_range(nv))
+      if (std::find(g.state.patch.begin(), g.state.patch.end(), nf) == g.state.patch.end())
+        g.state.patch.push_back(nf);
+  }
+  std::set<int> interior;
+  for (const FaceHandle f : g.state.patch)
+    for (const VertexHandle v : g.mesh.fv_range(f))
+      if (!g.state.boundary.count(v.idx())) interior.insert(v.idx());
+  ASSERT_FALSE(interior.empty());
+  for (const int i : interior) {
+    Vec3 p = g.mesh.point(VertexHandle(i));
+    p[2] = 0.3 * std::sin(p[0] * 3.0) + 0.2;
+    g.mesh.set_point(VertexHandle(i), p);
+  }
+  const SmoothReport r = smooth_by_normal_propagation(g.mesh, g.state);
+  EXPECT_EQ(r.moved, interior.size());
+  for (const int i : interior) EXPECT_NEAR(g.mesh.point(VertexHandle(i))[2], 0.0, 1e-9);
+}
+
+TEST(Sharpen, BothVariantsRestoreACubeEdgeFromPickedPoints) {
+  const std::array<std::array<Vec3, 2>, 1> edge{{{Vec3(8, 2.2, 8), Vec3(8, 5.8, 8)}}};
+  for (const SharpenMethod method : {SharpenMethod::PushDown, SharpenMethod::Split}) {
+    Mesh mesh = build_mesh(testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2)).mesh;
+    const auto holes = find_holes(mesh).holes;
+    ASSERT_EQ(holes.size(), 1u);
+    // A fair (rounded) fill first, so that the edge is really missing.
+    SharpenOptions options;
+    options.method = method;
+    options.fill.shape = PatchShape::Fair;
+    // Picks on the edge, slightly off the surface (the operator's hand): snapped onto it.
+    const HermitePoints picks{{8, 0.5, 8.01}, {8, 2, 8}, {8, 6, 8}, {8.02, 7.5, 8}};
+    const SharpenResult r = sharpen_hole(mesh, holes[0], picks, options);
+    ASSERT_TRUE(r.ok) << to_string(method) << ": " << r.failure;
+    const auto triangles = face_triangles(mesh, r.patch);
+    const double crease = segment_distance(edge, triangles, 0.01).max;
+    EXPECT_LT(crease, 0.05) << to_string(method);
+    EXPECT_TRUE(validate_mesh(mesh).is_clean()) << to_string(method);
+    EXPECT_TRUE(find_holes(mesh).holes.empty()) << to_string(method);
+    EXPECT_TRUE(find_face_intersections(mesh, r.patch).empty()) << to_string(method);
+    if (method == SharpenMethod::PushDown) {
+      EXPECT_GT(r.pushed, 0u);
+    }
+  }
+}
+
+TEST(Sharpen, RefusesPicksAwayFromTheHole) {
+  Mesh mesh = build_mesh(testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2)).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const std::size_t faces = mesh.n_faces();
+  const SharpenResult far =
+      sharpen_hole(mesh, holes[0], {{8, 0.5, 80}, {8, 2, 8}, {8, 6, 8}, {8, 7.5, 8}});
+  EXPECT_FALSE(far.ok);
+  EXPECT_NE(far.failure.find("P1"), std::string::npos) << far.failure;
+  const SharpenResult same =
+      sharpen_hole(mesh, holes[0], {{8, 0.5, 8}, {8, 2, 8}, {8, 2, 8}, {8, 7.5, 8}});
+  EXPECT_FALSE(same.ok);
+  mesh.garbage_collection();
+  EXPECT_EQ(mesh.n_faces(), faces);
+}
+
+}  // namespace
+}  // namespace touchmend::geometry

@@ -1,0 +1,182 @@
+// Creases across holes with no device (sharp_edges.h): a hole cut across a cube's edge has two
+// crossings joined by one curve, a hole at a cube's corner three crossings meeting at the
+// corner; `SharpMode::Auto` fills them so that the true crease lies on the patch, and the
+// result is closed, manifold and free of intersections. The region split itself is checked on
+// a planar loop.
+
+#include "server/geometry/sharp_edges.h"
+
+#include <map>
+
+#include <gtest/gtest.h>
+
+#include "server/geometry/hole_filling.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_intersections.h"
+#include "server/geometry/metrics.h"
+#include "tests/support/invariants.h"
+#include "tests/support/mesh_factory.h"
+
+namespace touchmend::geometry {
+namespace {
+
+constexpr int kCube = 8;
+
+//! The cube [0, 8]³ with the faces near \p centre removed (a hole across an edge or a corner).
+Mesh cube_with_hole(const Vec3& centre, double radius) {
+  return build_mesh(testing::cube_with_hole(kCube, centre, radius)).mesh;
+}
+
+double crease_distance(const Mesh& mesh, const HoleFillReport& fill,
+                       const std::vector<std::array<Vec3, 2>>& crease) {
+  const auto triangles = face_triangles(mesh, fill.new_faces);
+  return segment_distance(crease, triangles, 0.01).max;
+}
+
+TEST(SharpEdges, HoleAcrossAnEdgeHasOneCurveAlongIt) {
+  const Mesh mesh = cube_with_hole(Vec3(kCube, 4, kCube), 2.2);
+  const auto holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  const HoleCreasePlan plan = plan_hole_creases(mesh, holes[0]);
+  ASSERT_EQ(plan.crossings.size(), 2u) << plan.summary;
+  ASSERT_EQ(plan.curves.size(), 1u) << plan.summary;
+  EXPECT_FALSE(plan.corner);
+  for (const CreaseCrossing& c : plan.crossings) {
+    EXPECT_TRUE(c.convex);
+    EXPECT_NEAR(c.dihedral_deg, 90.0, 1e-6);
+    EXPECT_NEAR(c.position[0], kCube, 1e-12);
+    EXPECT_NEAR(c.position[2], kCube, 1e-12);
+    EXPECT_NEAR(std::abs(c.inward[1]), 1.0, 1e-9);  // along the edge, into the hole
+  }
+  // The curve is the edge itself.
+  for (double t = 0; t <= 1.0; t += 0.1) {
+    const Vec3 q = plan.curves[0].curve.at(t);
+    EXPECT_NEAR(q[0], kCube, 1e-9);
+    EXPECT_NEAR(q[2], kCube, 1e-9);
+  }
+}
+
+TEST(SharpEdges, AutoFillKeepsTheEdgeSharp) {
+  Mesh mesh = cube_with_hole(Vec3(kCube, 4, kCube), 2.2);
+  const auto holes = find_holes(mesh).holes;
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  FillOptions options;
+  options.sharp = SharpMode::Auto;
+  const FillReport report = fill_holes(mesh, {}, options);
+  ASSERT_EQ(report.holes.size(), 1u);
+  const HoleFillReport& r = report.holes[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit);
+  EXPECT_EQ(r.crease_curves, 1u);
+  EXPECT_EQ(r.pieces, 2u);
+  EXPECT_EQ(testing::check_fill_invariants(before, mesh, report.holes, holes), "");
+  // The edge x = z = 8 through the hole lies on the patch, and the patch is the cube's surface.
+  const std::vector<std::array<Vec3, 2>> edge{{Vec3(kCube, 2, kCube), Vec3(kCube, 6, kCube)}};
+  EXPECT_LT(crease_distance(mesh, r, edge), 1e-9);
+  for (const FaceHandle f : r.new_faces) {
+    const Vec3 n = mesh.calc_face_normal(f);
+    EXPECT_NEAR(std::max(n[0], n[2]), 1.0, 1e-9) << "a patch face is not on the top or the side";
+  }
+}
+
+TEST(SharpEdges, HoleAtACornerMeetsAtTheCorner) {
+  Mesh mesh = cube_with_hole(Vec3(kCube, kCube, kCube), 2.6);
+  const auto holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  const HoleCreasePlan plan = plan_hole_creases(mesh, holes[0]);
+  ASSERT_EQ(plan.crossings.size(), 3u) << plan.summary;
+  ASSERT_TRUE(plan.corner) << plan.summary;
+  EXPECT_LT((*plan.corner - Vec3(kCube, kCube, kCube)).norm(), 1e-9);
+  EXPECT_EQ(plan.curves.size(), 3u);
+
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  FillOptions options;
+  options.sharp = SharpMode::Auto;
+  const FillReport report = fill_holes(mesh, {}, options);
+  const HoleFillReport& r = report.holes.at(0);
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit);
+  EXPECT_EQ(r.pieces, 3u);
+  EXPECT_EQ(testing::check_fill_invariants(before, mesh, report.holes, holes), "");
+  const Vec3 corner(kCube, kCube, kCube);
+  const std::vector<std::array<Vec3, 2>> edges{{corner, corner - Vec3(2, 0, 0)},
+                                               {corner, corner - Vec3(0, 2, 0)},
+                                               {corner, corner - Vec3(0, 0, 2)}};
+  EXPECT_LT(crease_distance(mesh, r, edges), 1e-9);
+}
+
+TEST(SharpEdges, SmoothSurfacesHaveNoCreases) {
+  const MeshSoup sphere = testing::uv_sphere(1.0, 48, 24);
+  const Mesh mesh = build_mesh(testing::remove_faces(sphere, [](const Vec3& c) {
+                      return (c - Vec3(1, 0, 0)).norm() < 0.3;
+                    })).mesh;
+  const auto holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  const HoleCreasePlan plan = plan_hole_creases(mesh, holes[0]);
+  EXPECT_TRUE(plan.crossings.empty()) << plan.summary;
+  EXPECT_TRUE(plan.curves.empty());
+}
+
+TEST(CurveSplit, ChordSplitsASquareIntoTwoRegions) {
+  // A planar 8-gon (square with edge midpoints), curve from vertex 1 to vertex 5 via 2 points.
+  const std::vector<Vec3> loop{{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 1, 0},
+                               {2, 2, 0}, {1, 2, 0}, {0, 2, 0}, {0, 1, 0}};
+  std::vector<Vec3> opposite;
+  for (std::size_t i = 0; i < loop.size(); ++i)
+    opposite.push_back(0.5 * (loop[i] + loop[(i + 1) % loop.size()]) + Vec3(0, 0, -1));
+  CurveSplitInput in;
+  in.loop = loop;
+  in.opposite = opposite;
+  in.curves.push_back({1, 5, {Vec3(1, 0.67, 0), Vec3(1, 1.33, 0)}});
+  const CurveSplitTriangulation t = triangulate_along_curves(in);
+  ASSERT_TRUE(t.ok) << t.failure;
+  EXPECT_EQ(t.pieces, 2u);
+  EXPECT_EQ(t.new_points.size(), 2u);
+  // Every curve edge is used by exactly two triangles (one per side), every other interior
+  // edge by two, every loop edge by one: a manifold disk.
+  std::map<std::pair<int, int>, int> uses;
+  for (const auto& tri : t.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = tri[static_cast<std::size_t>(k)],
+                b = tri[static_cast<std::size_t>((k + 1) % 3)];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  ASSERT_EQ(t.curve_edges.size(), 3u);
+  for (const auto& [a, b] : t.curve_edges) EXPECT_EQ((uses[{std::min(a, b), std::max(a, b)}]), 2);
+  for (const auto& [edge, count] : uses) {
+    const bool loop_edge =
+        edge.second < 8 && (edge.second - edge.first == 1 || (edge.first == 0 && edge.second == 7));
+    EXPECT_EQ(count, loop_edge ? 1 : 2) << edge.first << "-" << edge.second;
+  }
+  // The two regions lie on the two sides of the curve x = 1.
+  auto centroid_x = [&](const std::array<int, 3>& tri) {
+    double x = 0;
+    for (const int v : tri)
+      x += (v < 8 ? loop[static_cast<std::size_t>(v)]
+                  : t.new_points[static_cast<std::size_t>(v - 8)])[0] /
+           3.0;
+    return x;
+  };
+  const bool first_left = centroid_x(t.triangles[0]) < 1;
+  for (std::size_t i = 0; i < t.triangles.size(); ++i) {
+    const bool same_piece = t.piece_of_triangle[i] == t.piece_of_triangle[0];
+    EXPECT_EQ(centroid_x(t.triangles[i]) < 1, same_piece ? first_left : !first_left) << i;
+  }
+}
+
+TEST(CurveSplit, RejectsCurvesThatDoNotEndOnTheLoop) {
+  const std::vector<Vec3> loop{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  const std::vector<Vec3> opposite(4, Vec3(0.5, 0.5, -1));
+  CurveSplitInput in;
+  in.loop = loop;
+  in.opposite = opposite;
+  in.curves.push_back({0, 7, {}});
+  EXPECT_FALSE(triangulate_along_curves(in).ok);
+  in.curves = {{0, -1, {}}};  // to a corner that was not given
+  EXPECT_FALSE(triangulate_along_curves(in).ok);
+  in.curves = {{0, 1, {}}};  // along a boundary edge
+  EXPECT_FALSE(triangulate_along_curves(in).ok);
+}
+
+}  // namespace
+}  // namespace touchmend::geometry
