@@ -176,6 +176,22 @@ Status RepairClient::stitch(const v1::StitchRequest& request, v1::EditResponse& 
   return channel()->unary("Stitch", request, out);
 }
 
+Status RepairClient::sharpen(const v1::SharpenRequest& request, v1::EditResponse& out) {
+  return channel()->unary("Sharpen", request, out);
+}
+
+Status RepairClient::list_gaps(const v1::ListGapsRequest& request, v1::ListGapsResponse& out) {
+  return channel()->unary("ListGaps", request, out);
+}
+
+Status RepairClient::bridge_gaps(const v1::BridgeGapsRequest& request, v1::EditResponse& out) {
+  return channel()->unary("BridgeGaps", request, out);
+}
+
+Status RepairClient::sharp_edge(const v1::SharpEdgeRequest& request, v1::SharpEdgeResponse& out) {
+  return channel()->unary("SharpEdge", request, out);
+}
+
 Status RepairClient::undo(const std::string& session_id, v1::EditResponse& out) {
   return channel()->unary("Undo", ref(session_id), out);
 }

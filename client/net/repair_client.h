@@ -77,6 +77,10 @@ class RepairClient {
   Status fill_holes(const v1::FillHolesRequest& request, v1::EditResponse& out,
                     std::chrono::milliseconds timeout = std::chrono::minutes(10));
   Status stitch(const v1::StitchRequest& request, v1::EditResponse& out);
+  Status sharpen(const v1::SharpenRequest& request, v1::EditResponse& out);
+  Status list_gaps(const v1::ListGapsRequest& request, v1::ListGapsResponse& out);
+  Status bridge_gaps(const v1::BridgeGapsRequest& request, v1::EditResponse& out);
+  Status sharp_edge(const v1::SharpEdgeRequest& request, v1::SharpEdgeResponse& out);
   Status undo(const std::string& session_id, v1::EditResponse& out);
   Status redo(const std::string& session_id, v1::EditResponse& out);
 

@@ -170,6 +170,10 @@ RepairService::RepairService(Store& store, JobManager& jobs, asio::thread_pool& 
       {"FindNearestHole", &RepairService::find_nearest_hole},
       {"FillHoles", &RepairService::fill_holes},
       {"Stitch", &RepairService::stitch},
+      {"Sharpen", &RepairService::sharpen},
+      {"ListGaps", &RepairService::list_gaps},
+      {"BridgeGaps", &RepairService::bridge_gaps},
+      {"SharpEdge", &RepairService::sharp_edge},
       {"Undo", &RepairService::undo},
       {"Redo", &RepairService::redo},
       {"Subscribe", &RepairService::subscribe},
@@ -505,6 +509,42 @@ void RepairService::stitch(const CallPtr& call) {
                                   Status s = session->stitch(req, call->principal(), response);
                                   reply(call, s, response);
                                 });
+}
+
+void RepairService::sharpen(const CallPtr& call) {
+  on_session<v1::SharpenRequest>(call,
+                                 [call](const v1::SharpenRequest& req, const SessionPtr& session) {
+                                   v1::EditResponse response;
+                                   Status s = session->sharpen(req, call->principal(), response);
+                                   reply(call, s, response);
+                                 });
+}
+
+void RepairService::list_gaps(const CallPtr& call) {
+  on_session<v1::ListGapsRequest>(
+      call, [call](const v1::ListGapsRequest& req, const SessionPtr& session) {
+        v1::ListGapsResponse response;
+        Status s = session->list_gaps(req, response);
+        reply(call, s, response);
+      });
+}
+
+void RepairService::bridge_gaps(const CallPtr& call) {
+  on_session<v1::BridgeGapsRequest>(
+      call, [call](const v1::BridgeGapsRequest& req, const SessionPtr& session) {
+        v1::EditResponse response;
+        Status s = session->bridge_gaps(req, call->principal(), response);
+        reply(call, s, response);
+      });
+}
+
+void RepairService::sharp_edge(const CallPtr& call) {
+  on_session<v1::SharpEdgeRequest>(
+      call, [call](const v1::SharpEdgeRequest& req, const SessionPtr& session) {
+        v1::SharpEdgeResponse response;
+        Status s = session->sharp_edge(req, call->principal(), response);
+        reply(call, s, response);
+      });
 }
 
 void RepairService::undo(const CallPtr& call) {

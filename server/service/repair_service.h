@@ -58,6 +58,10 @@ class RepairService final : public CallDispatcher {
   void find_nearest_hole(const CallPtr& call);
   void fill_holes(const CallPtr& call);
   void stitch(const CallPtr& call);
+  void sharpen(const CallPtr& call);
+  void list_gaps(const CallPtr& call);
+  void bridge_gaps(const CallPtr& call);
+  void sharp_edge(const CallPtr& call);
   void undo(const CallPtr& call);
   void redo(const CallPtr& call);
   void subscribe(const CallPtr& call);

@@ -1,6 +1,7 @@
 #include "server/service/session.h"
 
 #include <chrono>
+#include <cmath>
 
 #include "server/service/log.h"
 
@@ -182,6 +183,7 @@ void Session::snapshot() {
     return;
   }
   since_snapshot_ = 0;
+  delta_bytes_since_snapshot_ = 0;
 }
 
 Status Session::load(LoadedMesh mesh, const std::string& mesh_name, const std::string& principal,
@@ -226,6 +228,7 @@ Status Session::load(LoadedMesh mesh, const std::string& mesh_name, const std::s
   metrics_.journal_commit.observe(
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   since_snapshot_ = 0;
+  delta_bytes_since_snapshot_ = 0;
   version_.store(document_.version, std::memory_order_release);
   geometry_.invalidate();
   refresh_summary();
@@ -279,13 +282,53 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
   v1::SessionEvent event;
   *event.mutable_delta() = delta;
   broadcast(event);
-  // The snapshot runs as the strand's next task, after this edit has been answered: it is
-  // not part of any edit's latency (only the session's next call may wait for it).
-  if (++since_snapshot_ >= options_.snapshot_every && !snapshot_queued_) {
+  // The snapshot is taken as the strand's next task, after this edit has been answered, and
+  // only the copy of the document happens there: serialising and writing it (milliseconds for
+  // a large mesh) run on the pool beside the strand, so the session's next call does not wait
+  // for them (a stream of push-down samples would otherwise see it in its tail).
+  // A snapshot costs the document's size, so it waits for as much journal as it saves: 64
+  // entries (SERVICE.md §7), and deltas worth a quarter of the document or 16 x 64 entries
+  // (single-vertex push-down samples on a large mesh would otherwise snapshot it every 64).
+  ++since_snapshot_;
+  delta_bytes_since_snapshot_ += delta.ByteSizeLong();
+  const std::size_t document_bytes = 24 * document_.positions.size() + 12 * document_.faces.size();
+  const bool worth_it = delta_bytes_since_snapshot_ >= document_bytes / 4 ||
+                        since_snapshot_ >= 16 * options_.snapshot_every;
+  if (since_snapshot_ >= options_.snapshot_every && worth_it && !snapshot_queued_) {
     snapshot_queued_ = true;
     asio::post(strand_, [self = shared_from_this()] {
       self->snapshot_queued_ = false;
-      self->snapshot();
+      if (self->since_snapshot_ == 0) return;
+      // A small document is written right here (a few hundred microseconds); handing it to
+      // the pool would only have it compete with the session's next edit for the two cores
+      // and the store's lock.
+      constexpr std::size_t kInlineBytes = 1 << 20;
+      if (24 * self->document_.positions.size() + 12 * self->document_.faces.size() <
+          kInlineBytes) {
+        self->snapshot();
+        return;
+      }
+      auto parts = std::make_shared<std::pair<rpc::MeshDocument, SnapshotRow>>();
+      parts->first = self->document_;
+      parts->second.session_id = self->row_.id;
+      parts->second.version = self->document_.version;
+      parts->second.undo = self->undo_;
+      parts->second.redo = self->redo_;
+      parts->second.mesh_name = self->mesh_name_;
+      self->since_snapshot_ = 0;
+      self->delta_bytes_since_snapshot_ = 0;
+      asio::post(self->strand_.get_inner_executor(), [self, parts] {
+        v1::MeshDocument proto;
+        rpc::to_proto(parts->first, proto);
+        parts->second.document = proto.SerializeAsString();
+        if (Status s = self->store_.write_snapshot(parts->second); !s.is_ok()) {
+          log_event(spdlog::level::err, "snapshot_failed",
+                    {{"session_id", self->row_.id}, {"msg", s.message}});
+          // Try again after the next edit.
+          asio::post(self->strand_,
+                     [self] { self->since_snapshot_ = self->options_.snapshot_every; });
+        }
+      });
     });
   }
   return {};
@@ -331,6 +374,178 @@ Status Session::stitch(const v1::StitchRequest& request, const std::string& prin
   outcome.delta.set_description("stitch " + std::to_string(request.a()) + "-" +
                                 std::to_string(request.b()) + " to " + std::to_string(request.t()));
   return commit_cache_edit(std::move(outcome.delta), principal, request.request_id(), response);
+}
+
+Status Session::commit_summarised_edit(SessionGeometry::FillOutcome outcome,
+                                       const std::string& description, const std::string& summary,
+                                       const std::string& principal, const std::string& request_id,
+                                       v1::EditResponse& response) {
+  if (!outcome.status.is_ok()) {
+    geometry_.invalidate();  // a refused attempt may have left deleted elements behind
+    return outcome.status;
+  }
+  outcome.delta.set_description(description);
+  *response.mutable_report() = std::move(outcome.report);
+  response.set_summary(summary);
+  return commit_cache_edit(std::move(outcome.delta), principal, request_id, response);
+}
+
+Status Session::sharpen(const v1::SharpenRequest& request, const std::string& principal,
+                        v1::EditResponse& response) {
+  if (answered_before(request.request_id(), response)) return {};
+  if (document_.faces.empty())
+    return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
+  std::string summary;
+  SessionGeometry::FillOutcome outcome =
+      geometry_.sharpen(document_, request, current_extent(), summary);
+  return commit_summarised_edit(std::move(outcome),
+                                "sharpen hole " + std::to_string(request.hole_id()), summary,
+                                principal, request.request_id(), response);
+}
+
+Status Session::list_gaps(const v1::ListGapsRequest& request, v1::ListGapsResponse& response) {
+  if (!(request.max_width() >= 0) || !std::isfinite(request.max_width()))
+    return {StatusCode::InvalidArgument, "max_width must be finite and >= 0"};
+  response.set_version(document_.version);
+  if (document_.faces.empty()) return {};
+  for (const auto& gap : geometry_.gaps(document_, request.max_width()))
+    *response.add_gaps() = geometry_.gap_to_proto(gap);
+  return {};
+}
+
+Status Session::bridge_gaps(const v1::BridgeGapsRequest& request, const std::string& principal,
+                            v1::EditResponse& response) {
+  if (answered_before(request.request_id(), response)) return {};
+  if (document_.faces.empty())
+    return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
+  std::string summary;
+  SessionGeometry::FillOutcome outcome =
+      geometry_.bridge(document_, request, current_extent(), summary);
+  return commit_summarised_edit(std::move(outcome), "bridge gaps", summary, principal,
+                                request.request_id(), response);
+}
+
+namespace {
+
+void fill_preview(const SharpEdgeTool& tool, v1::SharpEdgeResponse& response) {
+  const auto guide = tool.guide();
+  if (!guide) return;
+  const auto point = [](const geometry::Vec3& p) {
+    v1::Point3 q;
+    q.set_x(p[0]);
+    q.set_y(p[1]);
+    q.set_z(p[2]);
+    return q;
+  };
+  for (const auto& s : guide->samples) *response.add_curve() = point(s.point);
+  for (const auto& t : guide->triangles())
+    for (const auto& p : t) *response.add_guide() = point(p);
+  response.set_patch_faces(static_cast<std::uint32_t>(tool.patch_faces.size()));
+  response.set_curtain_vertices(static_cast<std::uint32_t>(tool.on_guide.size()));
+}
+
+}  // namespace
+
+Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::string& principal,
+                           v1::SharpEdgeResponse& response) {
+  if (document_.faces.empty())
+    return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
+  const auto edit = [&](SessionGeometry::FillOutcome outcome, const std::string& description,
+                        bool invalidate_cache) -> Status {
+    if (!outcome.status.is_ok()) {
+      geometry_.invalidate();
+      return outcome.status;
+    }
+    outcome.delta.set_description(description);
+    v1::EditResponse committed;
+    if (Status s =
+            commit_cache_edit(std::move(outcome.delta), principal, request.request_id(), committed);
+        !s.is_ok())
+      return s;
+    // Splits and flips change faces in place: rebuild the cache from the document next time.
+    if (invalidate_cache) geometry_.invalidate();
+    response.set_version(committed.version());
+    *response.mutable_delta() = committed.delta();
+    return {};
+  };
+  switch (request.action_case()) {
+    case v1::SharpEdgeRequest::kBegin: {
+      SharpEdgeTool tool;
+      if (Status s = geometry_.sharp_edge_begin(document_, base_extent_, request.begin(), tool);
+          !s.is_ok())
+        return s;
+      sharp_tool_ = std::move(tool);
+      response.set_version(document_.version);
+      response.set_summary("sharp-edge tool on a patch of " +
+                           std::to_string(sharp_tool_->patch_faces.size()) + " faces");
+      break;
+    }
+    case v1::SharpEdgeRequest::kAdjust: {
+      if (!sharp_tool_) return {StatusCode::FailedPrecondition, "no sharp-edge tool: begin first"};
+      if (sharp_tool_->snapped)
+        return {StatusCode::FailedPrecondition,
+                "the curve is fixed once the patch is snapped onto it (cancel and begin again)"};
+      const auto& a = request.adjust();
+      if (!(a.k1() >= 0) || !(a.k4() >= 0) || !std::isfinite(a.k1() + a.k4()))
+        return {StatusCode::InvalidArgument, "k1 and k4 must be finite and >= 0"};
+      sharp_tool_->k1 = a.k1();
+      sharp_tool_->k4 = a.k4();
+      response.set_version(document_.version);
+      break;
+    }
+    case v1::SharpEdgeRequest::kConfirm: {
+      if (!sharp_tool_) return {StatusCode::FailedPrecondition, "no sharp-edge tool: begin first"};
+      if (sharp_tool_->snapped) return {StatusCode::FailedPrecondition, "already snapped"};
+      SharpEdgeTool tool = *sharp_tool_;
+      if (Status s = edit(geometry_.sharp_edge_snap(document_, tool, current_extent()),
+                          "sharp edge: snap onto the guiding surface", true);
+          !s.is_ok())
+        return s;
+      sharp_tool_ = std::move(tool);
+      response.set_summary(std::to_string(sharp_tool_->on_guide.size()) +
+                           " vertices on the guiding surface");
+      break;
+    }
+    case v1::SharpEdgeRequest::kPush: {
+      if (!sharp_tool_ || !sharp_tool_->snapped)
+        return {StatusCode::FailedPrecondition, "confirm the curve before pushing"};
+      SharpEdgeTool tool = *sharp_tool_;
+      SessionGeometry::PushReport report;
+      const Status s = edit(geometry_.sharp_edge_push(document_, tool, request.push(), report),
+                            "sharp edge: push", false);
+      response.set_at_limit(report.at_limit);
+      response.set_push_samples(report.samples);
+      if (!s.is_ok()) return s;
+      sharp_tool_ = std::move(tool);
+      break;
+    }
+    case v1::SharpEdgeRequest::kSmooth: {
+      if (!sharp_tool_ || !sharp_tool_->snapped)
+        return {StatusCode::FailedPrecondition, "confirm the curve before smoothing"};
+      SharpEdgeTool tool = *sharp_tool_;
+      if (Status s =
+              edit(geometry_.sharp_edge_smooth(document_, tool), "sharp edge: smooth", false);
+          !s.is_ok())
+        return s;
+      fill_preview(tool, response);
+      sharp_tool_.reset();  // the edit is finished
+      response.set_summary("smoothed; the sharp-edge tool is done");
+      return {};
+    }
+    case v1::SharpEdgeRequest::kCancel:
+      sharp_tool_.reset();
+      response.set_version(document_.version);
+      response.set_summary("sharp-edge tool cancelled");
+      return {};
+    default:
+      return {StatusCode::InvalidArgument,
+              "no action (begin, adjust, confirm, push, smooth, cancel)"};
+  }
+  const auto [k1, k4] = sharp_tool_->effective_k();
+  response.set_k1(k1);
+  response.set_k4(k4);
+  fill_preview(*sharp_tool_, response);
+  return {};
 }
 
 bool Session::answered_before(const std::string& request_id, v1::EditResponse& response) {

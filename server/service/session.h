@@ -60,6 +60,16 @@ class Session : public std::enable_shared_from_this<Session> {
   //! One stitch triangle across a gap (Algorithm VIII); an undoable edit like a fill.
   Status stitch(const v1::StitchRequest& request, const std::string& principal,
                 v1::EditResponse& response);
+  //! Fills a hole and retains the sharp edge through four picked points; one undoable edit.
+  Status sharpen(const v1::SharpenRequest& request, const std::string& principal,
+                 v1::EditResponse& response);
+  Status list_gaps(const v1::ListGapsRequest& request, v1::ListGapsResponse& response);
+  //! Bridges gaps (zipper, or Algorithm IX from two ends); one undoable edit.
+  Status bridge_gaps(const v1::BridgeGapsRequest& request, const std::string& principal,
+                     v1::EditResponse& response);
+  //! The interactive sharp-edge tool (begin, adjust, confirm, push, smooth, cancel).
+  Status sharp_edge(const v1::SharpEdgeRequest& request, const std::string& principal,
+                    v1::SharpEdgeResponse& response);
   enum class History { Undo, Redo };
   //! Undoes the last edit (journaled as the inverse delta) or redoes the last undone one.
   Status step_history(History direction, const std::string& principal, v1::EditResponse& response);
@@ -85,6 +95,12 @@ class Session : public std::enable_shared_from_this<Session> {
   //! and the cache, and makes it undoable.
   Status commit_cache_edit(v1::MeshDelta delta, const std::string& principal,
                            const std::string& request_id, v1::EditResponse& response);
+  //! commit_cache_edit for an edit with a report and a one-line summary (sharpen, bridge);
+  //! a refused outcome invalidates the cache and is returned.
+  Status commit_summarised_edit(SessionGeometry::FillOutcome outcome,
+                                const std::string& description, const std::string& summary,
+                                const std::string& principal, const std::string& request_id,
+                                v1::EditResponse& response);
   SnapshotRow make_snapshot() const;
   void refresh_summary();
 
@@ -110,8 +126,10 @@ class Session : public std::enable_shared_from_this<Session> {
   void push_undo(std::uint64_t version, const v1::MeshDelta& delta);
   void pop_undo();
   void reset_history_extents();
+  std::optional<SharpEdgeTool> sharp_tool_;
   std::string mesh_name_;
   std::size_t since_snapshot_ = 0;
+  std::size_t delta_bytes_since_snapshot_ = 0;
   bool snapshot_queued_ = false;  //!< a snapshot task is posted on the strand
   std::atomic<std::uint64_t> version_{0};
   std::map<std::pair<std::uint64_t, std::uint32_t>, CallPtr> subscribers_;

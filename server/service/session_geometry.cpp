@@ -1,14 +1,21 @@
 #include "server/service/session_geometry.h"
 
 #include <algorithm>
+#include <cmath>
+#include <set>
 #include <unordered_map>
 
+#include <fmt/format.h>
+
 #include "server/geometry/gap_bridging.h"
+#include "server/geometry/intersection.h"
+#include "server/geometry/mesh_intersections.h"
 #include "server/geometry/metrics.h"
 
 namespace touchmend::service {
 
 using geometry::FaceHandle;
+using geometry::HalfedgeHandle;
 using geometry::VertexHandle;
 using rpc::StatusCode;
 
@@ -87,6 +94,11 @@ geometry::FillOptions to_fill_options(const v1::FillOptions& options) {
       o.shape = geometry::PatchShape::Auto;
       break;
   }
+  if (options.sharp() == v1::SHARP_AUTO) o.sharp = geometry::SharpMode::Auto;
+  if (options.crease_angle_deg() > 0 && options.crease_angle_deg() < 180) {
+    o.creases.crease_angle_deg = options.crease_angle_deg();
+    o.creases.partner_angle_deg = std::min(o.creases.partner_angle_deg, options.crease_angle_deg());
+  }
   return o;
 }
 
@@ -114,6 +126,8 @@ void to_proto(const geometry::HoleFillReport& report, v1::HoleFillResult& out) {
   out.set_faces_added(static_cast<std::uint32_t>(report.faces_added));
   out.set_vertices_added(static_cast<std::uint32_t>(report.vertices_added));
   out.set_seconds(report.seconds);
+  out.set_creases(report.creases);
+  out.set_crease_curves(static_cast<std::uint32_t>(report.crease_curves));
 }
 
 Status export_document(const rpc::MeshDocument& document, geometry::MeshFormat format, bool binary,
@@ -453,6 +467,539 @@ SessionGeometry::FillOutcome SessionGeometry::stitch(const rpc::MeshDocument& do
   }
   holes_.reset();
   outcome.delta = edit_delta(document, {}, {r.face}, first_free);
+  return outcome;
+}
+
+namespace {
+
+bool finite_point(const v1::Point3& p) {
+  return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z());
+}
+
+geometry::Vec3 to_vec(const v1::Point3& p) {
+  return {p.x(), p.y(), p.z()};
+}
+
+}  // namespace
+
+std::optional<geometry::Hole> SessionGeometry::hole_by_doc_id(std::uint32_t id) {
+  for (const geometry::Hole& h : search().holes)
+    if (doc_hole_id(h) == id) return h;
+  return std::nullopt;
+}
+
+SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& document,
+                                                      const v1::SharpenRequest& request,
+                                                      SlotExtent first_free, std::string& summary) {
+  FillOutcome outcome;
+  if (request.points_size() != 4) {
+    outcome.status = {
+        StatusCode::InvalidArgument,
+        "four points are needed: P1, P2 on one side of the hole, P3, P4 on the other"};
+    return outcome;
+  }
+  for (const auto& p : request.points())
+    if (!finite_point(p)) {
+      outcome.status = {StatusCode::InvalidArgument, "a point is not finite"};
+      return outcome;
+    }
+  if (!(request.depth() >= 0) || !(request.k1() >= 0) || !(request.k4() >= 0) ||
+      !std::isfinite(request.depth() + request.k1() + request.k4())) {
+    outcome.status = {StatusCode::InvalidArgument, "k1, k4 and depth must be finite and >= 0"};
+    return outcome;
+  }
+  if (request.fill().refine_iterations() > 5) {
+    outcome.status = {StatusCode::InvalidArgument, "refine_iterations must be 1-5 (0 = default)"};
+    return outcome;
+  }
+  geometry::SharpenOptions options;
+  options.method = request.method() == v1::SHARPEN_PUSH_DOWN ? geometry::SharpenMethod::PushDown
+                                                             : geometry::SharpenMethod::Split;
+  if (request.depth() > 0 && options.method != geometry::SharpenMethod::PushDown) {
+    outcome.status = {StatusCode::InvalidArgument, "depth applies to the push-down method"};
+    return outcome;
+  }
+  options.hermite.k1 = request.k1();
+  options.hermite.k4 = request.k4();
+  options.depth = request.depth();
+  options.fill = to_fill_options(request.fill());
+  sync(document);
+  const auto hole = hole_by_doc_id(request.hole_id());
+  if (!hole) {
+    outcome.status = {StatusCode::NotFound, "no hole with id " + std::to_string(request.hole_id())};
+    return outcome;
+  }
+  const geometry::HermitePoints picks{to_vec(request.points(0)), to_vec(request.points(1)),
+                                      to_vec(request.points(2)), to_vec(request.points(3))};
+  const geometry::SharpenResult r = geometry::sharpen_hole(mesh_, *hole, picks, options);
+  holes_.reset();
+  if (!r.ok) {
+    outcome.status = {StatusCode::FailedPrecondition, "sharpen refused: " + r.failure};
+    return outcome;
+  }
+  v1::HoleFillResult* result = outcome.report.add_holes();
+  to_proto(r.fill, *result);
+  result->set_hole_id(request.hole_id());
+  outcome.report.set_holes_found(1);
+  // The patch's vertices that the document does not have yet (curve, refinement, splits).
+  const auto is_new = [&](VertexHandle v) {
+    const auto i = static_cast<std::size_t>(v.idx());
+    return i >= doc_of_mesh_vertex_.size() || doc_of_mesh_vertex_[i] == kNoId;
+  };
+  std::vector<VertexHandle> vertices;
+  std::set<int> seen;
+  for (const FaceHandle f : r.patch)
+    for (const VertexHandle v : mesh_.fv_range(f))
+      if (is_new(v) && seen.insert(v.idx()).second) vertices.push_back(v);
+  summary = options.method == geometry::SharpenMethod::PushDown
+                ? fmt::format(
+                      "sharp edge retained on hole {} (push-down: {} snapped, {} split, {} "
+                      "pushed, {} smoothed)",
+                      request.hole_id(), r.snap.moved, r.snap.splits, r.pushed, r.smooth.moved)
+                : fmt::format("sharp edge retained on hole {} (split along the curve)",
+                              request.hole_id());
+  outcome.delta = edit_delta(document, std::move(vertices), r.patch, first_free);
+  return outcome;
+}
+
+std::vector<geometry::Gap> SessionGeometry::gaps(const rpc::MeshDocument& document,
+                                                 double max_width) {
+  sync(document);
+  geometry::GapOptions options;
+  options.max_width = max_width;
+  return geometry::find_gaps(mesh_, search().holes, options);
+}
+
+v1::Gap SessionGeometry::gap_to_proto(const geometry::Gap& gap) const {
+  v1::Gap out;
+  out.set_id(gap.id);
+  for (const auto& h : holes_ ? holes_->holes : std::vector<geometry::Hole>{}) {
+    if (h.id == gap.hole_a) out.set_hole_a(doc_hole_id(h));
+    if (h.id == gap.hole_b) out.set_hole_b(doc_hole_id(h));
+  }
+  for (const VertexHandle v : gap.run_a)
+    out.add_run_a(doc_vertex(static_cast<std::size_t>(v.idx())));
+  for (const VertexHandle v : gap.run_b)
+    out.add_run_b(doc_vertex(static_cast<std::size_t>(v.idx())));
+  out.set_cyclic(gap.cyclic);
+  out.set_mean_width(gap.mean_width);
+  out.set_max_width(gap.max_width);
+  out.set_length(gap.length);
+  return out;
+}
+
+SessionGeometry::FillOutcome SessionGeometry::bridge(const rpc::MeshDocument& document,
+                                                     const v1::BridgeGapsRequest& request,
+                                                     SlotExtent first_free, std::string& summary) {
+  FillOutcome outcome;
+  if (!(request.max_width() >= 0) || !std::isfinite(request.max_width())) {
+    outcome.status = {StatusCode::InvalidArgument, "max_width must be finite and >= 0"};
+    return outcome;
+  }
+  if (request.fill().refine_iterations() > 5) {
+    outcome.status = {StatusCode::InvalidArgument, "refine_iterations must be 1-5 (0 = default)"};
+    return outcome;
+  }
+  const geometry::FillOptions fill = to_fill_options(request.fill());
+  std::vector<FaceHandle> faces;
+  std::vector<VertexHandle> vertices;
+  const auto collect = [&](const geometry::HoleFillReport& f) {
+    to_proto(f, *outcome.report.add_holes());
+    if (!f.filled) return;
+    for (const auto v : f.new_vertices)
+      if (!mesh_.status(v).deleted()) vertices.push_back(v);
+    for (const auto x : f.new_faces)
+      if (!mesh_.status(x).deleted()) faces.push_back(x);
+  };
+  if (request.mode_case() == v1::BridgeGapsRequest::kEnds) {
+    sync(document);
+    const auto vertex = [&](std::uint32_t id) {
+      const std::uint32_t m = id < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[id] : kNoId;
+      return m == kNoId || id >= document.vertex_alive.size() || !document.vertex_alive[id]
+                 ? VertexHandle()
+                 : VertexHandle(static_cast<int>(m));
+    };
+    const auto& e1 = request.ends().first();
+    const auto& e2 = request.ends().second();
+    const geometry::GapEnd first{vertex(e1.a()), vertex(e1.b()), vertex(e1.t())};
+    const geometry::GapEnd second{vertex(e2.a()), vertex(e2.b()), vertex(e2.t())};
+    for (const VertexHandle v : {first.a, first.b, first.t, second.a, second.b, second.t})
+      if (!v.is_valid()) {
+        outcome.status = {StatusCode::NotFound, "a gap end names a vertex that does not exist"};
+        return outcome;
+      }
+    const geometry::GapBridgeResult r = geometry::bridge_gap(mesh_, first, second, fill);
+    holes_.reset();
+    if (r.stitches.empty()) {
+      outcome.status = {StatusCode::FailedPrecondition, "bridge refused: " + r.reason};
+      return outcome;
+    }
+    faces = r.stitches;
+    for (const auto& f : r.fills) collect(f);
+    summary = r.ok ? "gap bridged: a stitch at each end, the loop between them filled"
+                   : "gap ends stitched; " + r.reason;
+    outcome.delta = edit_delta(document, std::move(vertices), std::move(faces), first_free);
+    return outcome;
+  }
+  std::vector<geometry::Gap> found = gaps(document, request.max_width());
+  std::vector<const geometry::Gap*> selected;
+  if (request.mode_case() == v1::BridgeGapsRequest::kAll) {
+    for (const auto& g : found) selected.push_back(&g);
+  } else if (request.mode_case() == v1::BridgeGapsRequest::kIds) {
+    for (const std::uint32_t id : request.ids().ids()) {
+      if (id >= found.size()) {
+        outcome.status = {StatusCode::NotFound, "no gap with id " + std::to_string(id) +
+                                                    " (the mesh has " +
+                                                    std::to_string(found.size()) + " gaps)"};
+        return outcome;
+      }
+      selected.push_back(&found[id]);
+    }
+  } else {
+    outcome.status = {StatusCode::InvalidArgument, "no gap selection (all, ids or ends)"};
+    return outcome;
+  }
+  std::size_t bridged = 0;
+  std::vector<std::string> refused;
+  for (const geometry::Gap* g : selected) {
+    const geometry::DetectedGapBridge b = geometry::bridge_detected_gap(mesh_, *g, fill);
+    if (!b.zip.ok) {
+      refused.push_back(fmt::format("gap {}: {}", g->id, b.zip.reason));
+      continue;
+    }
+    ++bridged;
+    faces.insert(faces.end(), b.zip.faces.begin(), b.zip.faces.end());
+    for (const auto& f : b.end_fills) collect(f);
+  }
+  holes_.reset();
+  summary = fmt::format("bridged {} of {} gaps{}{}", bridged, selected.size(),
+                        refused.empty() ? "" : "; ", fmt::join(refused, "; "));
+  if (bridged == 0 && !selected.empty()) {
+    outcome.status = {StatusCode::FailedPrecondition, summary};
+    return outcome;
+  }
+  outcome.delta = edit_delta(document, std::move(vertices), std::move(faces), first_free);
+  return outcome;
+}
+
+std::optional<geometry::GuideSurface> SharpEdgeTool::guide() const {
+  geometry::HermiteOptions options;
+  options.k1 = k1;
+  options.k4 = k4;
+  const auto curve =
+      geometry::make_hermite_curve(points, options, 1e-12 * std::max(height, 1e-300));
+  if (!curve.curve) return std::nullopt;
+  return geometry::make_guide_surface(*curve.curve, normal, segment_length, height);
+}
+
+std::pair<double, double> SharpEdgeTool::effective_k() const {
+  geometry::HermiteOptions options;
+  options.k1 = k1;
+  options.k4 = k4;
+  const auto curve =
+      geometry::make_hermite_curve(points, options, 1e-12 * std::max(height, 1e-300));
+  return {curve.k1, curve.k4};
+}
+
+Status SessionGeometry::sharp_edge_begin(const rpc::MeshDocument& document, SlotExtent base,
+                                         const v1::SharpEdgeBegin& begin, SharpEdgeTool& tool) {
+  if (begin.points_size() != 4)
+    return {StatusCode::InvalidArgument, "four points are needed (P1, P2, P3, P4)"};
+  for (const auto& p : begin.points())
+    if (!finite_point(p)) return {StatusCode::InvalidArgument, "a point is not finite"};
+  if (!(begin.k1() >= 0) || !(begin.k4() >= 0) || !std::isfinite(begin.k1() + begin.k4()))
+    return {StatusCode::InvalidArgument, "k1 and k4 must be finite and >= 0"};
+  sync(document);
+  SharpEdgeTool t;
+  t.points = {to_vec(begin.points(0)), to_vec(begin.points(1)), to_vec(begin.points(2)),
+              to_vec(begin.points(3))};
+  t.k1 = begin.k1();
+  t.k4 = begin.k4();
+  const auto edited = [&](FaceHandle f) {
+    const std::uint32_t id = doc_of_mesh_face_.size() > static_cast<std::size_t>(f.idx())
+                                 ? doc_of_mesh_face_[static_cast<std::size_t>(f.idx())]
+                                 : kNoId;
+    return id != kNoId && id >= base.faces;
+  };
+  // The patch: the edited face nearest the middle of the chord P2-P3, and every edited face
+  // connected to it across edges.
+  const geometry::Vec3 middle = 0.5 * (t.points.p2 + t.points.p3);
+  FaceHandle seed;
+  double best = std::numeric_limits<double>::infinity();
+  for (const FaceHandle f : mesh_.faces()) {
+    if (mesh_.status(f).deleted() || !edited(f)) continue;
+    geometry::TrianglePoints tri;
+    int k = 0;
+    for (const VertexHandle v : mesh_.fv_range(f))
+      tri[static_cast<std::size_t>(k++)] = mesh_.point(v);
+    const double d = (geometry::closest_point_on_triangle(middle, tri) - middle).norm();
+    if (d < best) {
+      best = d;
+      seed = f;
+    }
+  }
+  if (!seed.is_valid())
+    return {StatusCode::FailedPrecondition,
+            "no filled patch: fill the hole first, then pick the points around it"};
+  std::vector<FaceHandle> patch{seed};
+  std::set<int> in_patch{seed.idx()};
+  for (std::size_t i = 0; i < patch.size(); ++i)
+    for (const HalfedgeHandle h : mesh_.fh_range(patch[i])) {
+      const FaceHandle n = mesh_.face_handle(mesh_.opposite_halfedge_handle(h));
+      if (n.is_valid() && edited(n) && in_patch.insert(n.idx()).second) patch.push_back(n);
+    }
+  double boundary_length = 0;
+  std::size_t boundary_edges = 0;
+  geometry::Vec3 normal(0, 0, 0);
+  double diameter = 0;
+  for (const FaceHandle f : patch) {
+    t.patch_faces.push_back(doc_of_mesh_face_[static_cast<std::size_t>(f.idx())]);
+    for (const HalfedgeHandle h : mesh_.fh_range(f)) {
+      const FaceHandle n = mesh_.face_handle(mesh_.opposite_halfedge_handle(h));
+      if (n.is_valid() && in_patch.count(n.idx())) continue;
+      boundary_length += mesh_.calc_edge_length(h);
+      ++boundary_edges;
+      for (const VertexHandle v : {mesh_.from_vertex_handle(h), mesh_.to_vertex_handle(h)}) {
+        t.boundary.insert(doc_vertex(static_cast<std::size_t>(v.idx())));
+        for (const FaceHandle around : mesh_.vf_range(v))
+          if (!in_patch.count(around.idx())) normal += mesh_.calc_face_normal(around);
+      }
+    }
+  }
+  for (const std::uint32_t a : t.boundary)
+    for (const std::uint32_t b : t.boundary)
+      if (a < b)
+        diameter = std::max(diameter,
+                            (mesh_.point(VertexHandle(static_cast<int>(mesh_of_doc_vertex_[a]))) -
+                             mesh_.point(VertexHandle(static_cast<int>(mesh_of_doc_vertex_[b]))))
+                                .norm());
+  if (boundary_edges == 0 || !(normal.norm() > 0))
+    return {StatusCode::FailedPrecondition, "the patch under the curve has no boundary"};
+  t.normal = normal / normal.norm();
+  t.segment_length = boundary_length / static_cast<double>(boundary_edges);
+  double reach = 0;
+  for (const FaceHandle f : patch)
+    for (const VertexHandle v : mesh_.fv_range(f))
+      reach = std::max(reach, std::abs(OpenMesh::dot(mesh_.point(v) - t.points.p2, t.normal)));
+  t.height = std::max(diameter, 3 * reach);
+  if (!t.guide())
+    return {StatusCode::InvalidArgument, "the four points make no curve (two coincide)"};
+  tool = std::move(t);
+  return {};
+}
+
+std::optional<geometry::SharpEdgeState> SessionGeometry::tool_state(const SharpEdgeTool& tool,
+                                                                    std::string& why) {
+  geometry::SharpEdgeState state;
+  const auto guide = tool.guide();
+  if (!guide) {
+    why = "the curve is degenerate";
+    return std::nullopt;
+  }
+  state.guide = *guide;
+  const auto vertex = [&](std::uint32_t id) {
+    return id < mesh_of_doc_vertex_.size() && mesh_of_doc_vertex_[id] != kNoId
+               ? VertexHandle(static_cast<int>(mesh_of_doc_vertex_[id]))
+               : VertexHandle();
+  };
+  for (const std::uint32_t f : tool.patch_faces) {
+    const std::uint32_t m = f < mesh_of_doc_face_.size() ? mesh_of_doc_face_[f] : kNoId;
+    if (m == kNoId || mesh_.status(FaceHandle(static_cast<int>(m))).deleted()) {
+      why = "the patch changed since the tool began (begin again)";
+      return std::nullopt;
+    }
+    state.patch.push_back(FaceHandle(static_cast<int>(m)));
+  }
+  for (const std::uint32_t v : tool.boundary)
+    if (const VertexHandle h = vertex(v); h.is_valid()) state.boundary.insert(h.idx());
+  for (const auto& [id, c] : tool.on_guide)
+    if (const VertexHandle h = vertex(id); h.is_valid()) state.on_guide[h.idx()] = c;
+  for (const std::uint32_t id : tool.moved)
+    if (const VertexHandle h = vertex(id); h.is_valid()) state.moved.insert(h.idx());
+  return state;
+}
+
+std::optional<geometry::SharpEdgeState> SessionGeometry::tool_state_of(
+    const rpc::MeshDocument& document, const SharpEdgeTool& tool, FillOutcome& outcome) {
+  sync(document);
+  std::string why;
+  auto state = tool_state(tool, why);
+  if (!state) outcome.status = {StatusCode::FailedPrecondition, why};
+  return state;
+}
+
+std::map<int, geometry::Vec3> SessionGeometry::patch_positions(
+    const geometry::SharpEdgeState& state) const {
+  std::map<int, geometry::Vec3> positions;
+  for (const FaceHandle f : state.patch)
+    for (const VertexHandle v : mesh_.fv_range(f)) positions.emplace(v.idx(), mesh_.point(v));
+  return positions;
+}
+
+v1::MeshDelta SessionGeometry::move_delta(const rpc::MeshDocument& document,
+                                          const std::vector<VertexHandle>& vertices) const {
+  v1::MeshDelta delta;
+  delta.set_base_version(document.version);
+  delta.set_version(document.version + 1);
+  for (const VertexHandle v : vertices) {
+    const std::uint32_t id = doc_vertex(static_cast<std::size_t>(v.idx()));
+    const auto& from = document.positions[id];
+    const auto& to = mesh_.point(v);
+    delta.add_moved_vertex_ids(id);
+    for (int c = 0; c < 3; ++c) delta.add_moved_positions(to[c]);
+    for (int c = 0; c < 3; ++c) delta.add_moved_from(from[static_cast<std::size_t>(c)]);
+  }
+  return delta;
+}
+
+SessionGeometry::FillOutcome SessionGeometry::sharp_edge_snap(const rpc::MeshDocument& document,
+                                                              SharpEdgeTool& tool,
+                                                              SlotExtent first_free) {
+  FillOutcome outcome;
+  auto state = tool_state_of(document, tool, outcome);
+  if (!state) return outcome;
+  // Patch vertices and their positions before, to report the moves.
+  const std::map<int, geometry::Vec3> before = patch_positions(*state);
+  const geometry::SnapReport snap = geometry::snap_to_guide(mesh_, *state);
+  holes_.reset();
+  if (state->on_guide.empty()) {
+    outcome.status = {StatusCode::FailedPrecondition,
+                      "the curve does not cross the patch seen along its normal: pick P2 and P3 "
+                      "on the rim where the crease meets it"};
+    invalidate();
+    return outcome;
+  }
+  // The delta: the old patch faces go, the patch as it is now comes (splits and flips change
+  // faces in place), new vertices are added and moved ones moved.
+  std::vector<FaceHandle> faces;
+  for (const FaceHandle f : state->patch)
+    if (!mesh_.status(f).deleted()) faces.push_back(f);
+  outcome.delta = edit_delta(document, snap.new_vertices, faces, first_free);
+  for (const std::uint32_t f : tool.patch_faces) outcome.delta.add_removed_faces(f);
+  for (const auto& [index, old] : before) {
+    const VertexHandle v(index);
+    if (mesh_.point(v) == old) continue;
+    const std::uint32_t id = doc_vertex(static_cast<std::size_t>(index));
+    outcome.delta.add_moved_vertex_ids(id);
+    for (int c = 0; c < 3; ++c) outcome.delta.add_moved_positions(mesh_.point(v)[c]);
+    for (int c = 0; c < 3; ++c) outcome.delta.add_moved_from(old[c]);
+  }
+  // The tool in document ids: new vertices' ids come from the delta's slot map.
+  std::map<std::uint32_t, std::uint32_t> new_doc;  // mesh index -> doc id
+  for (std::size_t i = 0; i + 1 < pending_vertex_map_.size(); i += 2)
+    new_doc[pending_vertex_map_[i]] = pending_vertex_map_[i + 1];
+  const auto doc_id = [&](int index) {
+    const auto it = new_doc.find(static_cast<std::uint32_t>(index));
+    return it != new_doc.end() ? it->second : doc_vertex(static_cast<std::size_t>(index));
+  };
+  tool.patch_faces.assign(outcome.delta.added_face_ids().begin(),
+                          outcome.delta.added_face_ids().end());
+  tool.on_guide.clear();
+  for (const auto& [index, c] : state->on_guide) tool.on_guide[doc_id(index)] = c;
+  tool.snapped = true;
+  return outcome;
+}
+
+SessionGeometry::FillOutcome SessionGeometry::sharp_edge_push(const rpc::MeshDocument& document,
+                                                              SharpEdgeTool& tool,
+                                                              const v1::SharpEdgePush& push,
+                                                              PushReport& report) {
+  FillOutcome outcome;
+  if (!finite_point(push.proxy()) || !finite_point(push.previous()) ||
+      !std::isfinite(push.step() + push.depth()) || !(push.step() > 0) || push.depth() < 0) {
+    outcome.status = {StatusCode::InvalidArgument,
+                      "proxy and previous must be finite, step > 0 and depth >= 0"};
+    return outcome;
+  }
+  auto state = tool_state_of(document, tool, outcome);
+  if (!state) return outcome;
+  const auto nearest_patch_face = [&](const geometry::Vec3& point) {
+    FaceHandle nearest;
+    double best = std::numeric_limits<double>::infinity();
+    for (const FaceHandle f : state->patch) {
+      if (mesh_.status(f).deleted()) continue;
+      geometry::TrianglePoints tri;
+      int k = 0;
+      for (const VertexHandle v : mesh_.fv_range(f))
+        tri[static_cast<std::size_t>(k++)] = mesh_.point(v);
+      const double d = (geometry::closest_point_on_triangle(point, tri) - point).norm();
+      if (d < best) {
+        best = d;
+        nearest = f;
+      }
+    }
+    return nearest;
+  };
+  FaceHandle fixed_face;
+  if (push.face() != kNoId && push.face() < mesh_of_doc_face_.size() &&
+      mesh_of_doc_face_[push.face()] != kNoId)
+    fixed_face = FaceHandle(static_cast<int>(mesh_of_doc_face_[push.face()]));
+  // The motion since the last push is cut into tool samples of one step each (Algorithm VI
+  // moves a vertex by the step per sample), so a client whose pushes are delayed by the
+  // network sends the same sweep in fewer, longer requests and gets the same result.
+  const geometry::Vec3 from = to_vec(push.previous()), to = to_vec(push.proxy());
+  const double length = (to - from).norm();
+  const int samples =
+      std::clamp(static_cast<int>(std::floor(length / push.step())), 1, kMaxSamplesPerPush);
+  geometry::PushOptions options;
+  options.step = push.step();
+  options.depth = push.depth();
+  std::vector<VertexHandle> moved;
+  std::string why_not;
+  for (int i = 1; i <= samples; ++i) {
+    const geometry::Vec3 previous = from + (to - from) * (double(i - 1) / samples);
+    const geometry::Vec3 proxy = from + (to - from) * (double(i) / samples);
+    const FaceHandle touched = push.face() == kNoId ? nearest_patch_face(proxy) : fixed_face;
+    const geometry::PushResult r =
+        geometry::push_down(mesh_, *state, proxy, previous, touched, options);
+    report.at_limit = r.at_limit;
+    if (!r.moved) {
+      why_not = r.why_not;
+      continue;
+    }
+    if (std::find(moved.begin(), moved.end(), r.vertex) == moved.end()) moved.push_back(r.vertex);
+  }
+  if (moved.empty()) {
+    outcome.status = {StatusCode::FailedPrecondition, "push refused: " + why_not};
+    return outcome;
+  }
+  for (const VertexHandle v : moved) {
+    const std::uint32_t id = doc_vertex(static_cast<std::size_t>(v.idx()));
+    tool.on_guide[id] = state->on_guide[v.idx()];
+    tool.moved.insert(id);
+  }
+  report.samples = static_cast<std::uint32_t>(samples);
+  report.vertices = static_cast<std::uint32_t>(moved.size());
+  outcome.delta = move_delta(document, moved);
+  pending_vertex_map_.clear();
+  pending_face_map_.clear();
+  pending_version_ = document.version + 1;
+  return outcome;
+}
+
+SessionGeometry::FillOutcome SessionGeometry::sharp_edge_smooth(const rpc::MeshDocument& document,
+                                                                SharpEdgeTool& tool) {
+  FillOutcome outcome;
+  auto state = tool_state_of(document, tool, outcome);
+  if (!state) return outcome;
+  const std::map<int, geometry::Vec3> before = patch_positions(*state);
+  geometry::smooth_by_normal_propagation(mesh_, *state);
+  holes_.reset();
+  std::vector<VertexHandle> moved;
+  for (const auto& [index, old] : before)
+    if (mesh_.point(VertexHandle(index)) != old) moved.push_back(VertexHandle(index));
+  // A smoothing that folds the patch into the mesh is refused.
+  if (!geometry::find_face_intersections(mesh_, state->patch, 1, geometry::max_edge_length(mesh_))
+           .empty()) {
+    for (const auto& [index, old] : before) mesh_.set_point(VertexHandle(index), old);
+    outcome.status = {StatusCode::FailedPrecondition,
+                      "smoothing would make the patch intersect the mesh"};
+    return outcome;
+  }
+  outcome.delta = move_delta(document, moved);
+  pending_vertex_map_.clear();
+  pending_face_map_.clear();
+  pending_version_ = document.version + 1;
   return outcome;
 }
 

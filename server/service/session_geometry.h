@@ -14,18 +14,22 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "proto/rpc/mesh_document.h"
 #include "proto/rpc/status.h"
+#include "server/geometry/gap_bridging.h"
 #include "server/geometry/hole_filling.h"
 #include "server/geometry/holes.h"
 #include "server/geometry/mesh.h"
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_io.h"
+#include "server/geometry/sharpen.h"
 #include "touchmend/v1/repair.pb.h"
 
 namespace touchmend::service {
@@ -33,6 +37,9 @@ namespace touchmend::service {
 using rpc::Status;
 
 inline constexpr std::uint32_t kNoId = std::numeric_limits<std::uint32_t>::max();
+//! A push request longer than this many steps is applied as this many samples (a bound on the
+//! work one request can ask for).
+inline constexpr int kMaxSamplesPerPush = 256;
 
 //! Limits on what a client may load (SERVICE.md §2.3, configurable).
 struct MeshLimits {
@@ -64,6 +71,24 @@ Status export_document(const rpc::MeshDocument& document, geometry::MeshFormat f
 struct SlotExtent {
   std::uint32_t vertices = 0;
   std::uint32_t faces = 0;
+};
+
+//! The interactive sharp-edge tool of a session, in document ids (the mesh cache may be rebuilt
+//! between calls).
+struct SharpEdgeTool {
+  geometry::HermitePoints points;
+  double k1 = 0, k4 = 0;
+  std::vector<std::uint32_t> patch_faces;  //!< document face ids
+  std::set<std::uint32_t> boundary;        //!< document vertex ids that never move
+  geometry::Vec3 normal{0, 0, 1};          //!< extrusion direction of the guiding surface
+  double segment_length = 0;               //!< the patch boundary's mean edge length
+  double height = 0;                       //!< half-height of the guiding surface
+  bool snapped = false;                    //!< Algorithm V done: the curve is fixed
+  std::map<std::uint32_t, geometry::CurtainPoint> on_guide;  //!< document vertex ids
+  std::set<std::uint32_t> moved;
+  std::optional<geometry::GuideSurface> guide() const;
+  //! The tangent lengths in effect (the defaults resolved), for the preview.
+  std::pair<double, double> effective_k() const;
 };
 
 class SessionGeometry {
@@ -100,6 +125,33 @@ class SessionGeometry {
   //! boundary vertex t (document vertex ids), as a delta (not yet applied, like fill()).
   FillOutcome stitch(const rpc::MeshDocument& document, std::uint32_t a, std::uint32_t b,
                      std::uint32_t t, SlotExtent first_free = {});
+  //! Fills hole `hole_id` and retains the sharp edge through the picked points (sharpen.h), as
+  //! one delta; \p summary says what was done.
+  FillOutcome sharpen(const rpc::MeshDocument& document, const v1::SharpenRequest& request,
+                      SlotExtent first_free, std::string& summary);
+  //! The gaps of the current document (ids = positions in the list).
+  std::vector<geometry::Gap> gaps(const rpc::MeshDocument& document, double max_width);
+  v1::Gap gap_to_proto(const geometry::Gap& gap) const;
+  //! Bridges gaps (zipper; or Algorithm IX from two ends) as one delta.
+  FillOutcome bridge(const rpc::MeshDocument& document, const v1::BridgeGapsRequest& request,
+                     SlotExtent first_free, std::string& summary);
+  //! Sharp-edge tool steps. begin finds the patch (the connected edited faces, slots at or
+  //! above \p base, under the curve) and fills \p tool; snap, push and smooth return their
+  //! edit as a delta (not yet applied, like fill()) and update \p tool.
+  Status sharp_edge_begin(const rpc::MeshDocument& document, SlotExtent base,
+                          const v1::SharpEdgeBegin& begin, SharpEdgeTool& tool);
+  FillOutcome sharp_edge_snap(const rpc::MeshDocument& document, SharpEdgeTool& tool,
+                              SlotExtent first_free);
+  //! One push request: the motion from previous to proxy is cut into tool samples of one step
+  //! (at most kMaxSamplesPerPush), each an Algorithm VI push.
+  struct PushReport {
+    bool at_limit = false;       //!< the last sample's vertex reached its limit
+    std::uint32_t samples = 0;   //!< tool samples applied
+    std::uint32_t vertices = 0;  //!< distinct vertices moved
+  };
+  FillOutcome sharp_edge_push(const rpc::MeshDocument& document, SharpEdgeTool& tool,
+                              const v1::SharpEdgePush& push, PushReport& report);
+  FillOutcome sharp_edge_smooth(const rpc::MeshDocument& document, SharpEdgeTool& tool);
   //! Records that the last fill's or stitch's delta was applied to the document (else
   //! invalidate()).
   void commit_pending();
@@ -119,6 +171,18 @@ class SessionGeometry {
   //! The smallest document vertex id on the hole's boundary: its stable id on the wire.
   std::uint32_t doc_hole_id(const geometry::Hole& hole) const;
   std::uint32_t doc_vertex(std::size_t mesh_index) const;
+  std::optional<geometry::Hole> hole_by_doc_id(std::uint32_t id);
+  //! The tool's state on the cache mesh (handles), or why it cannot be mapped.
+  std::optional<geometry::SharpEdgeState> tool_state(const SharpEdgeTool& tool, std::string& why);
+  //! sync() and tool_state(); a failure goes into \p outcome's status.
+  std::optional<geometry::SharpEdgeState> tool_state_of(const rpc::MeshDocument& document,
+                                                        const SharpEdgeTool& tool,
+                                                        FillOutcome& outcome);
+  //! The positions of the patch's vertices (to report what an operation moved).
+  std::map<int, geometry::Vec3> patch_positions(const geometry::SharpEdgeState& state) const;
+  //! A delta moving the given cache vertices from their document positions.
+  v1::MeshDelta move_delta(const rpc::MeshDocument& document,
+                           const std::vector<geometry::VertexHandle>& vertices) const;
 
   bool valid_ = false;
   std::uint64_t version_ = 0;

@@ -4,11 +4,16 @@
 //      300-boundary-vertex hole (target p99 <= 10 ms);
 //   2. sweep streaming: N clients x 1,000 tool samples/s (target: 32 clients, no drops),
 //      with the server's CPU and memory;
-//   3. batch throughput: fill jobs per second over the shared cases with the default workers.
+//   3. batch throughput: fill jobs per second over the shared cases with the default workers;
+//   4. sharp-edge push-down: a tool sample (SharpEdge push, Algorithm VI) -> the move's delta at
+//      a second client (target p99 <= 5 ms), on a 49k-face cube whose filled edge hole is pushed
+//      back to the edge.
 
 #include <algorithm>
+#include <array>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sys/resource.h>
 #include <thread>
 #include <unistd.h>
@@ -68,11 +73,7 @@ std::string percentiles(std::vector<double> ms) {
 }
 
 std::string annulus_off(int inner) {
-  const geometry::MeshSoup soup = annulus(inner, 10.0, 6, 0.4);
-  const auto mesh = geometry::build_mesh(soup).mesh;
-  std::string off;
-  geometry::serialize_mesh(mesh, geometry::MeshFormat::Off, {}, off);
-  return off;
+  return to_off(annulus(inner, 10.0, 6, 0.4));
 }
 
 // One measured interaction per iteration, then an undo so the hole is back for the next.
@@ -140,6 +141,80 @@ void round_trip(const ServerProcess& server, int iterations, bool select_first) 
       percentiles(total));
   std::cout << fmt::format("  of which the FillHoles call:              {}\n",
                            percentiles(fill_only));
+}
+
+void push_down(const ServerProcess& server, int iterations) {
+  auto channel_a = server.connect();
+  auto channel_b = server.connect();
+  net::RepairClient a(channel_a), b(channel_b);
+  v1::SessionInfo info;
+  a.create_session("push-down bench", info);
+  constexpr int kCells = 64;
+  const geometry::MeshSoup soup =
+      cube_with_hole(kCells, geometry::Vec3(kCells, kCells / 2, kCells), 6.5);
+  const std::string off = to_off(soup);
+  v1::LoadMeshResponse loaded;
+  if (auto s = a.upload_mesh(info.session_id(), off, v1::OFF, "cube64.off", loaded); !s.is_ok()) {
+    std::cerr << "upload failed: " << s.to_string() << "\n";
+    return;
+  }
+  net::SessionReplica replica(b, info.session_id());
+  if (!replica.start().is_ok()) return;
+  v1::FillHolesRequest fill;
+  fill.set_session_id(info.session_id());
+  fill.mutable_selection()->set_all(true);
+  fill.mutable_options()->set_shape(v1::PATCH_SHAPE_FAIR);
+  v1::EditResponse filled;
+  a.fill_holes(fill, filled);
+  v1::SharpEdgeRequest request;
+  request.set_session_id(info.session_id());
+  for (const double y :
+       {kCells / 2 - 10.0, kCells / 2 - 6.0, kCells / 2 + 6.0, kCells / 2 + 10.0}) {
+    auto* p = request.mutable_begin()->add_points();
+    p->set_x(kCells);
+    p->set_y(y);
+    p->set_z(kCells);
+  }
+  v1::SharpEdgeResponse response;
+  if (auto s = a.sharp_edge(request, response); !s.is_ok()) {
+    std::cerr << "begin failed: " << s.to_string() << "\n";
+    return;
+  }
+  request.set_confirm(true);
+  if (auto s = a.sharp_edge(request, response); !s.is_ok()) {
+    std::cerr << "confirm failed: " << s.to_string() << "\n";
+    return;
+  }
+  replica.wait_for_version(response.version(), 10s);
+  const std::uint32_t curtain = response.curtain_vertices();
+  std::vector<double> latency;
+  for (int i = 0; i < iterations + 5; ++i) {
+    // The curtain vertex (on x = z, under the edge) nearest the edge's middle.
+    const rpc::MeshDocument& doc = replica.document();
+    std::optional<std::array<double, 3>> target;
+    for (std::size_t v = 0; v < doc.positions.size(); ++v) {
+      const auto& p = doc.positions[v];
+      if (doc.vertex_alive[v] && std::abs(p[0] - p[2]) < 1e-9 && p[0] > kCells - 8 &&
+          p[0] < kCells - 1e-9 &&
+          (!target || std::abs(p[1] - kCells / 2) < std::abs((*target)[1] - kCells / 2)))
+        target = p;
+    }
+    if (!target) break;
+    const v1::SharpEdgeRequest push = sharp_edge_push(info.session_id(), *target, 0.002, 0.002);
+    const auto start = Clock::now();
+    v1::SharpEdgeResponse pushed;
+    if (auto s = a.sharp_edge(push, pushed); !s.is_ok()) {
+      std::cerr << "push failed: " << s.to_string() << "\n";
+      break;
+    }
+    replica.wait_for_version(pushed.version(), 10s);
+    const auto end = Clock::now();
+    if (i >= 5) latency.push_back(std::chrono::duration<double, std::milli>(end - start).count());
+  }
+  std::cout << fmt::format(
+      "sharp-edge push-down, {} faces, {} curtain vertices:\n  tool sample -> move delta at a 2nd "
+      "client: {}\n",
+      soup.triangles.size(), curtain, percentiles(latency));
 }
 
 void sweep(const ServerProcess& server, pid_t pid, int clients, double seconds) {
@@ -271,6 +346,7 @@ int main(int argc, char** argv) {
                            TOUCHMEND_SERVER_PATH);
   round_trip(server, iterations, false);
   round_trip(server, iterations, true);
+  push_down(server, std::max(iterations, 500));
   if (!skip_sweep) {
     for (int n : sweep_clients) sweep(server, server.pid(), n, sweep_seconds);
   }

@@ -128,4 +128,20 @@ std::filesystem::path shared_data() {
   return TOUCHMEND_SHARED_DATA_DIR;
 }
 
+v1::SharpEdgeRequest sharp_edge_push(const std::string& session_id, const std::array<double, 3>& at,
+                                     double motion, double step) {
+  v1::SharpEdgeRequest request;
+  request.set_session_id(session_id);
+  auto* sample = request.mutable_push();
+  sample->mutable_proxy()->set_x(at[0]);
+  sample->mutable_proxy()->set_y(at[1]);
+  sample->mutable_proxy()->set_z(at[2]);
+  sample->mutable_previous()->set_x(at[0]);
+  sample->mutable_previous()->set_y(at[1] - motion);
+  sample->mutable_previous()->set_z(at[2]);
+  sample->set_face(0xFFFFFFFFu);  // the patch face nearest the proxy
+  sample->set_step(step);
+  return request;
+}
+
 }  // namespace touchmend::testing

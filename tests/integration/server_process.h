@@ -4,6 +4,7 @@
 //! \brief Starts a real touchmend-server process on loopback for integration tests (a free
 //! port from --listen 127.0.0.1:0 and --port-file), and stops or kills it.
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -59,5 +60,10 @@ std::string read_binary_file(const std::filesystem::path& path);
 void write_binary_file(const std::filesystem::path& path, const std::string& bytes);
 //! The shared data directory (../shared/data).
 std::filesystem::path shared_data();
+
+//! A SharpEdge push tool sample at \p at that came from \p motion back along -y (the edge's
+//! direction in the cube tests), the touched face left to the server, \p step per sample.
+v1::SharpEdgeRequest sharp_edge_push(const std::string& session_id, const std::array<double, 3>& at,
+                                     double motion, double step);
 
 }  // namespace touchmend::testing

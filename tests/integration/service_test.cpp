@@ -16,6 +16,7 @@
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_io.h"
 #include "tests/integration/server_process.h"
+#include "tests/support/cases.h"
 #include "tests/support/mesh_factory.h"
 
 namespace touchmend::testing {
@@ -775,6 +776,8 @@ TEST(Service, ASlowSubscriberLosesEventsNotTheServersMemory) {
   EXPECT_NE(metrics.received.find("touchmend_slow_consumer_resyncs_total"), std::string::npos);
 }
 
+std::string two_plates_off();
+
 // The `touchmend` command line against a server: the same results and exit codes as in-process.
 int run_cli(const std::string& args, std::string* output = nullptr) {
   TempDir out_dir;
@@ -827,6 +830,53 @@ TEST(Service, CommandLineAgainstAServer) {
   EXPECT_EQ(run_cli("job list", &output), 2) << output;
   EXPECT_EQ(run_cli("--server 127.0.0.1:1 holes " + sample, &output), 4) << output;
   EXPECT_NE(output.find("UNAVAILABLE"), std::string::npos) << output;
+
+  // Sharp edges and gaps: the same files as in process.
+  const std::string fandisk = shared_data_dir() + "/cases/fandisk_sharp/holed.off";
+  const auto sharp_remote = dir.path() / "sharp_remote.off";
+  const auto sharp_local = dir.path() / "sharp_local.off";
+  ASSERT_EQ(
+      run_cli(address + " fill " + fandisk + " --all --sharp auto -o " + sharp_remote.string(),
+              &output),
+      0)
+      << output;
+  ASSERT_EQ(run_cli("fill " + fandisk + " --all --sharp auto -o " + sharp_local.string(), &output),
+            0)
+      << output;
+  EXPECT_EQ(read_binary_file(sharp_remote), read_binary_file(sharp_local));
+  const std::string points =
+      " --hole 1444 --points '4.828,15.2,0;4.828,14.795,0;4.828,14.203,0;4.828,13.8,0'";
+  ASSERT_EQ(
+      run_cli(address + " sharpen " + fandisk + points + " -o " + sharp_remote.string(), &output),
+      0)
+      << output;
+  ASSERT_EQ(run_cli("sharpen " + fandisk + points + " -o " + sharp_local.string(), &output), 0)
+      << output;
+  EXPECT_EQ(read_binary_file(sharp_remote), read_binary_file(sharp_local));
+  EXPECT_EQ(run_cli(address + " sharpen " + fandisk + " --hole 3" +
+                        points.substr(points.find(" --points")) + " -o " + sharp_remote.string(),
+                    &output),
+            1)
+      << output;
+  const auto plates = dir.path() / "plates.off";
+  write_binary_file(plates, two_plates_off());
+  ASSERT_EQ(run_cli(address + " gaps " + plates.string(), &output), 0) << output;
+  EXPECT_NE(output.find("gap    0"), std::string::npos) << output;
+  const auto bridged_remote = dir.path() / "bridged_remote.off";
+  const auto bridged_local = dir.path() / "bridged_local.off";
+  ASSERT_EQ(run_cli(address + " bridge " + plates.string() + " --all -o " + bridged_remote.string(),
+                    &output),
+            0)
+      << output;
+  ASSERT_EQ(run_cli("bridge " + plates.string() + " --all -o " + bridged_local.string(), &output),
+            0)
+      << output;
+  EXPECT_EQ(read_binary_file(bridged_remote), read_binary_file(bridged_local));
+  EXPECT_EQ(
+      run_cli(address + " bridge " + plates.string() + " --gap 4 -o " + bridged_remote.string(),
+              &output),
+      1)
+      << output;
 }
 
 TEST(Service, MetricsAndHealthOverHttp) {
@@ -858,15 +908,7 @@ namespace {
 
 //! Two 4x4-cell plates facing +z with a 0.5-wide gap between x = 4 and x = 4.5, as OFF.
 std::string two_plates_off() {
-  geometry::MeshSoup soup = grid(4, 4);
-  const geometry::MeshSoup right = grid(4, 4);
-  const auto offset = static_cast<std::uint32_t>(soup.points.size());
-  for (const auto& p : right.points) soup.points.push_back(p + geometry::Vec3(4.5, 0, 0));
-  for (const auto& t : right.triangles)
-    soup.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-  std::string off;
-  geometry::serialize_mesh(geometry::build_mesh(soup).mesh, geometry::MeshFormat::Off, {}, off);
-  return off;
+  return to_off(two_plates(4, 0.5));
 }
 
 TEST(Service, StitchesAcrossAGapAreUndoableEditsEveryoneSees) {
@@ -910,6 +952,249 @@ TEST(Service, StitchesAcrossAGapAreUndoableEditsEveryoneSees) {
   ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
   ASSERT_TRUE(replica.wait_for_version(undone.version(), 10s).is_ok());
   EXPECT_EQ(replica.document().alive_faces(), 64u);
+}
+
+TEST(Service, GapsAreListedAndBridgedAsEditsEveryoneSees) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  RepairClient a(server.connect()), b(server.connect());
+  v1::SessionInfo info;
+  ASSERT_TRUE(a.create_session("gaps", info).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(
+      a.upload_mesh(info.session_id(), two_plates_off(), v1::OFF, "plates.off", loaded).is_ok());
+  net::SessionReplica replica(b, info.session_id());
+  ASSERT_TRUE(replica.start().is_ok());
+  v1::ListGapsRequest list;
+  list.set_session_id(info.session_id());
+  v1::ListGapsResponse gaps;
+  ASSERT_TRUE(a.list_gaps(list, gaps).is_ok());
+  ASSERT_EQ(gaps.gaps_size(), 1);
+  EXPECT_EQ(gaps.gaps(0).run_a_size(), 5);
+  EXPECT_NEAR(gaps.gaps(0).max_width(), 0.5, 1e-9);
+  list.set_max_width(-1);
+  EXPECT_EQ(a.list_gaps(list, gaps).code, StatusCode::InvalidArgument);
+  // Unknown gap id: refused, nothing changes.
+  v1::BridgeGapsRequest bridge;
+  bridge.set_session_id(info.session_id());
+  bridge.mutable_ids()->add_ids(7);
+  v1::EditResponse edit;
+  EXPECT_EQ(a.bridge_gaps(bridge, edit).code, StatusCode::NotFound);
+  bridge.set_all(true);
+  ASSERT_TRUE(a.bridge_gaps(bridge, edit).is_ok());
+  EXPECT_EQ(edit.delta().added_face_ids_size(), 8);  // 4 + 4 edges zipped
+  EXPECT_NE(edit.summary().find("bridged 1 of 1"), std::string::npos) << edit.summary();
+  ASSERT_TRUE(replica.wait_for_version(edit.version(), 10s).is_ok());
+  rpc::MeshDocument server_doc;
+  ASSERT_TRUE(a.download_document(info.session_id(), server_doc).is_ok());
+  EXPECT_EQ(replica.document(), server_doc);
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(a.list_holes(info.session_id(), holes).is_ok());
+  EXPECT_EQ(holes.holes_size(), 1);  // the outer boundary only
+  // Undo, then Algorithm IX over the wire: a stitch at each end, the rest filled.
+  v1::EditResponse undone;
+  ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
+  v1::BridgeGapsRequest ends;
+  ends.set_session_id(info.session_id());
+  auto* first = ends.mutable_ends()->mutable_first();
+  first->set_a(4);  // left (4, 0) - (4, 1), to right (0, 0)
+  first->set_b(9);
+  first->set_t(25);
+  auto* second = ends.mutable_ends()->mutable_second();
+  second->set_a(19);  // left (4, 3) - (4, 4), to right (0, 4)
+  second->set_b(24);
+  second->set_t(45);
+  v1::EditResponse semi;
+  ASSERT_TRUE(a.bridge_gaps(ends, semi).is_ok());
+  EXPECT_GE(semi.delta().added_face_ids_size(), 8);
+  ASSERT_TRUE(a.list_holes(info.session_id(), holes).is_ok());
+  EXPECT_EQ(holes.holes_size(), 1);
+  second->set_t(999999);
+  EXPECT_EQ(a.bridge_gaps(ends, semi).code, StatusCode::NotFound);
+}
+
+TEST(Service, SharpenAndSharpAutoFillRetainTheCreaseOverTheWire) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  RepairClient a(server.connect());
+  const std::string fandisk = shared_data_dir() + "/cases/fandisk_sharp/holed.off";
+  const auto read = geometry::read_mesh_file(fandisk);
+  ASSERT_TRUE(read.ok);
+  std::string off;
+  geometry::serialize_mesh(geometry::build_mesh(read.soup).mesh, geometry::MeshFormat::Off, {},
+                           off);
+  v1::SessionInfo info;
+  ASSERT_TRUE(a.create_session("sharp", info).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(a.upload_mesh(info.session_id(), off, v1::OFF, "fandisk.off", loaded).is_ok());
+  // Hole 1444 lies on the straight crease x = 4.828, z = 0.
+  v1::SharpenRequest sharpen;
+  sharpen.set_session_id(info.session_id());
+  sharpen.set_hole_id(1444);
+  for (const double y : {15.2, 14.795, 14.203, 13.8}) {
+    auto* p = sharpen.add_points();
+    p->set_x(4.828);
+    p->set_y(y);
+    p->set_z(0);
+  }
+  v1::EditResponse edit;
+  ASSERT_TRUE(a.sharpen(sharpen, edit).is_ok());
+  ASSERT_EQ(edit.report().holes_size(), 1);
+  EXPECT_EQ(edit.report().holes(0).method(), "crease-split");
+  EXPECT_GT(edit.delta().added_face_ids_size(), 0);
+  // Every point of the crease segment through the hole is a patch vertex or on a patch edge:
+  // the new vertices on x = 4.828, z = 0 are evenly spread along it.
+  std::size_t on_crease = 0;
+  for (int i = 0; i < edit.delta().added_vertex_ids_size(); ++i) {
+    const double x = edit.delta().added_positions(3 * i),
+                 z = edit.delta().added_positions(3 * i + 2);
+    on_crease += std::abs(x - 4.828) < 1e-3 && std::abs(z) < 1e-3 ? 1 : 0;
+  }
+  EXPECT_GE(on_crease, 3u);
+  // Refusals: three points, an unknown hole, depth with the split method.
+  v1::SharpenRequest bad = sharpen;
+  bad.mutable_points()->RemoveLast();
+  EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::InvalidArgument);
+  bad = sharpen;
+  bad.set_hole_id(3);
+  EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::NotFound);
+  bad = sharpen;
+  bad.set_hole_id(1028);
+  bad.set_depth(0.1);
+  EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::InvalidArgument);
+  // The other holes with --sharp auto: split along their detected creases.
+  v1::FillHolesRequest fill;
+  fill.set_session_id(info.session_id());
+  fill.mutable_selection()->set_all(true);
+  fill.mutable_options()->set_sharp(v1::SHARP_AUTO);
+  ASSERT_TRUE(a.fill_holes(fill, edit).is_ok());
+  ASSERT_EQ(edit.report().holes_size(), 2);
+  for (const auto& h : edit.report().holes()) {
+    EXPECT_EQ(h.method(), "crease-split") << h.reason();
+    EXPECT_GE(h.crease_curves(), 3u);
+  }
+}
+
+//! The cube [0, 8]³ with a hole across its edge x = z = 8 (around y = 4), as OFF.
+std::string cube_edge_hole_off() {
+  return to_off(cube_with_hole(8, geometry::Vec3(8, 4, 8), 2.2));
+}
+
+TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  RepairClient a(server.connect()), b(server.connect());
+  v1::SessionInfo info;
+  ASSERT_TRUE(a.create_session("sharp edge", info).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(
+      a.upload_mesh(info.session_id(), cube_edge_hole_off(), v1::OFF, "cube.off", loaded).is_ok());
+  net::SessionReplica replica(b, info.session_id());
+  ASSERT_TRUE(replica.start().is_ok());
+  // A faired fill rounds the edge off.
+  v1::FillHolesRequest fill;
+  fill.set_session_id(info.session_id());
+  fill.mutable_selection()->set_all(true);
+  fill.mutable_options()->set_shape(v1::PATCH_SHAPE_FAIR);
+  v1::EditResponse filled;
+  ASSERT_TRUE(a.fill_holes(fill, filled).is_ok());
+
+  v1::SharpEdgeRequest request;
+  request.set_session_id(info.session_id());
+  v1::SharpEdgeResponse response;
+  // Push before begin: refused.
+  request.mutable_push()->set_step(0.1);
+  EXPECT_EQ(a.sharp_edge(request, response).code, StatusCode::FailedPrecondition);
+  auto* begin = request.mutable_begin();
+  for (const double y : {0.5, 2.0, 6.0, 7.5}) {
+    auto* p = begin->add_points();
+    p->set_x(8);
+    p->set_y(y);
+    p->set_z(8);
+  }
+  ASSERT_TRUE(a.sharp_edge(request, response).is_ok());
+  EXPECT_GT(response.patch_faces(), 0u);
+  EXPECT_EQ(response.version(), filled.version());  // a preview changes nothing
+  ASSERT_GE(response.curve_size(), 2);
+  for (const auto& q : response.curve()) {
+    EXPECT_NEAR(q.x(), 8, 1e-9);
+    EXPECT_NEAR(q.z(), 8, 1e-9);
+  }
+  EXPECT_EQ(response.guide_size() % 3, 0);
+  // Live k: a longer start tangent bends the curve away from the edge (preview only).
+  request.mutable_adjust()->set_k1(12);
+  request.mutable_adjust()->set_k4(0);
+  ASSERT_TRUE(a.sharp_edge(request, response).is_ok());
+  EXPECT_DOUBLE_EQ(response.k1(), 12);
+  request.mutable_adjust()->set_k1(0);  // back to the straight edge
+  ASSERT_TRUE(a.sharp_edge(request, response).is_ok());
+  EXPECT_EQ(response.version(), filled.version());
+
+  request.set_confirm(true);
+  ASSERT_TRUE(a.sharp_edge(request, response).is_ok());
+  EXPECT_EQ(response.version(), filled.version() + 1);
+  EXPECT_GT(response.curtain_vertices(), 0u);
+  ASSERT_TRUE(replica.wait_for_version(response.version(), 10s).is_ok());
+  // Curtain vertices lie on x = z (the plane through the edge along the hole normal); those
+  // under the edge are pushed up to it, one tool sample at a time.
+  std::size_t pushes = 0;
+  for (int round = 0; round < 200; ++round) {
+    const rpc::MeshDocument& doc = replica.document();
+    std::optional<std::array<double, 3>> target;
+    for (std::size_t v = 0; v < doc.positions.size(); ++v) {
+      const auto& p = doc.positions[v];
+      if (doc.vertex_alive[v] && std::abs(p[0] - p[2]) < 1e-9 && p[0] > 6 && p[0] < 8 - 1e-9 &&
+          p[1] > 2 && p[1] < 6)
+        target = p;
+    }
+    if (!target) break;
+    // The first push carries a motion of three steps (a client whose pushes were delayed):
+    // three samples; then one sample per push.
+    const v1::SharpEdgeRequest push =
+        sharp_edge_push(info.session_id(), *target, round == 0 ? 0.9 : 0.1, 0.3);
+    v1::SharpEdgeResponse pushed;
+    const Status pushed_status = a.sharp_edge(push, pushed);
+    ASSERT_TRUE(pushed_status.is_ok()) << "round " << round << ": " << pushed_status.message;
+    ASSERT_EQ(pushed.push_samples(), round == 0 ? 3u : 1u);
+    ASSERT_GE(pushed.delta().moved_vertex_ids_size(), 1);
+    ASSERT_LE(pushed.delta().moved_vertex_ids_size(), static_cast<int>(pushed.push_samples()));
+    ASSERT_TRUE(replica.wait_for_version(pushed.version(), 10s).is_ok());
+    ++pushes;
+  }
+  EXPECT_GT(pushes, 0u);
+  request.set_smooth(true);
+  ASSERT_TRUE(a.sharp_edge(request, response).is_ok());
+  ASSERT_TRUE(replica.wait_for_version(response.version(), 10s).is_ok());
+  rpc::MeshDocument server_doc;
+  ASSERT_TRUE(a.download_document(info.session_id(), server_doc).is_ok());
+  EXPECT_EQ(replica.document(), server_doc);
+  // The result is closed and clean, and the edge is back: every curtain vertex is on it.
+  geometry::MeshSoup soup;
+  std::vector<std::uint32_t> compact(server_doc.positions.size(), 0);
+  for (std::size_t v = 0; v < server_doc.positions.size(); ++v)
+    if (server_doc.vertex_alive[v]) {
+      compact[v] = static_cast<std::uint32_t>(soup.points.size());
+      const auto& p = server_doc.positions[v];
+      soup.points.emplace_back(p[0], p[1], p[2]);
+      if (std::abs(p[0] - p[2]) < 1e-9 && p[0] > 6 && p[1] > 2 && p[1] < 6) {
+        EXPECT_NEAR(p[0], 8, 1e-9);
+      }
+    }
+  for (std::size_t f = 0; f < server_doc.faces.size(); ++f)
+    if (server_doc.face_alive[f])
+      soup.triangles.push_back({compact[server_doc.faces[f][0]], compact[server_doc.faces[f][1]],
+                                compact[server_doc.faces[f][2]]});
+  const auto built = geometry::build_mesh(soup);
+  EXPECT_TRUE(built.report.is_clean());
+  EXPECT_EQ(built.report.boundary_edges, 0u);
+  // The tool ended with the smoothing; every step is undoable.
+  EXPECT_EQ(a.sharp_edge(request, response).code, StatusCode::FailedPrecondition);
+  v1::EditResponse undone;
+  ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
+  ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
 }
 
 }  // namespace

@@ -127,7 +127,7 @@ TEST(MethodTable, ComesFromTheServiceDescriptor) {
   EXPECT_TRUE(upload->client_streaming);
   EXPECT_FALSE(upload->server_streaming);
   EXPECT_EQ(find_method("/touchmend.v1.Repair/Nope"), nullptr);
-  EXPECT_EQ(repair_methods().size(), 23u);
+  EXPECT_EQ(repair_methods().size(), 27u);
 }
 
 TEST(Status, SpellsTheGrpcNames) {
