@@ -19,26 +19,6 @@
 namespace touchmend::cli {
 namespace {
 
-struct Loaded {
-  geometry::BuildResult built;
-  geometry::ReadReport read;
-};
-
-//! Reads and builds a mesh; on failure prints the problem and returns nullopt.
-std::optional<Loaded> load(const std::string& file, std::ostream& err) {
-  geometry::ReadResult read = geometry::read_mesh_file(file);
-  if (!read.ok) {
-    err << "error: " << read.error << "\n";
-    return std::nullopt;
-  }
-  if (read.soup.triangles.empty()) {
-    err << "error: " << file << ": the mesh has no faces\n";
-    return std::nullopt;
-  }
-  Loaded l{geometry::build_mesh(read.soup), read.report};
-  return l;
-}
-
 nlohmann::json bounds_json(const geometry::Mesh& mesh) {
   geometry::Vec3 lo(0, 0, 0), hi(0, 0, 0);
   bool first = true;
@@ -57,6 +37,20 @@ nlohmann::json bounds_json(const geometry::Mesh& mesh) {
 }
 
 }  // namespace
+
+std::optional<Loaded> load(const std::string& file, std::ostream& err) {
+  geometry::ReadResult read = geometry::read_mesh_file(file);
+  if (!read.ok) {
+    err << "error: " << read.error << "\n";
+    return std::nullopt;
+  }
+  if (read.soup.triangles.empty()) {
+    err << "error: " << file << ": the mesh has no faces\n";
+    return std::nullopt;
+  }
+  Loaded l{geometry::build_mesh(read.soup), read.report};
+  return l;
+}
 
 bool parse_point(const std::string& text, geometry::Vec3& point) {
   std::size_t start = 0;
@@ -143,6 +137,17 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
     err << "error: --shape must be flat, fair or auto\n";
     return kExitUsage;
   }
+  if (!geometry::parse_sharp_mode(args.sharp, options.sharp)) {
+    err << "error: --sharp must be off or auto\n";
+    return kExitUsage;
+  }
+  if (!(args.crease_angle > 0 && args.crease_angle < 180)) {
+    err << "error: --crease-angle must be between 0 and 180 degrees\n";
+    return kExitUsage;
+  }
+  options.creases.crease_angle_deg = args.crease_angle;
+  options.creases.partner_angle_deg =
+      std::min(options.creases.partner_angle_deg, args.crease_angle);
   options.refine_iterations = args.refine_iterations;
   auto loaded = load(args.file, err);
   if (!loaded) return kExitBadInput;

@@ -9,7 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "server/geometry/hermite_curve.h"
 #include "server/geometry/mesh.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_io.h"
 
 namespace touchmend::cli {
 
@@ -48,6 +51,8 @@ struct FillArgs {
   std::size_t max_boundary = 0;
   int refine_iterations = 3;
   std::string shape = "auto";
+  std::string sharp = "off";  //!< off | auto: retain the creases that cross each hole
+  double crease_angle = 50;   //!< dihedral angle (degrees) above which an edge is a crease
   bool json = false;
   bool binary = false;
   bool strict = false;
@@ -68,6 +73,58 @@ int run_fill_remote(const FillArgs& args, const RemoteArgs& remote, std::ostream
 int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, std::ostream& err);
 int run_holes(const HolesArgs& args, std::ostream& out, std::ostream& err);
 int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err);
+
+struct SharpenArgs {
+  std::string file;
+  std::string output;
+  std::uint32_t hole = 0;
+  std::string points;  //!< "X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z"
+  double k1 = 0, k4 = 0;
+  double depth = 0;
+  std::string method = "split";
+  std::string shape = "auto";
+  int refine_iterations = 3;
+  bool json = false;
+  bool binary = false;
+};
+
+struct GapsArgs {
+  std::string file;
+  double max_width = 0;
+  bool json = false;
+};
+
+struct BridgeArgs {
+  std::string file;
+  std::string output;
+  std::vector<std::uint32_t> gap_ids;
+  bool all = false;
+  double max_width = 0;
+  bool json = false;
+  bool binary = false;
+};
+
+int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err);
+int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::ostream& out,
+                       std::ostream& err);
+int run_gaps_remote(const GapsArgs& args, const RemoteArgs& remote, std::ostream& out,
+                    std::ostream& err);
+int run_bridge_remote(const BridgeArgs& args, const RemoteArgs& remote, std::ostream& out,
+                      std::ostream& err);
+int run_gaps(const GapsArgs& args, std::ostream& out, std::ostream& err);
+int run_bridge(const BridgeArgs& args, std::ostream& out, std::ostream& err);
+
+//! A mesh file read and built into a mesh.
+struct Loaded {
+  geometry::BuildResult built;
+  geometry::ReadReport read;
+};
+
+//! Reads and builds a mesh; on failure prints the problem and returns nullopt.
+std::optional<Loaded> load(const std::string& file, std::ostream& err);
+
+//! Parses "X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z" into four finite points.
+bool parse_points(const std::string& text, geometry::HermitePoints& points);
 
 //! Parses "X,Y,Z" into a finite point.
 bool parse_point(const std::string& text, geometry::Vec3& point);

@@ -90,9 +90,95 @@ int main(int argc, char** argv) {
           "the surrounding surface; auto: flat where the surroundings are planar, else fair")
       ->check(CLI::IsMember({"flat", "fair", "auto"}))
       ->capture_default_str();
+  fill_cmd
+      ->add_option(
+          "--sharp", fill.sharp,
+          "auto: find the creases (sharp edges) that cross each hole, pair them into\n"
+          "Hermite curves or extend three or more to a common corner, and fill the hole\n"
+          "split along those curves, so the creases run through the patch; off: plain fill")
+      ->check(CLI::IsMember({"off", "auto"}))
+      ->capture_default_str();
+  fill_cmd
+      ->add_option(
+          "--crease-angle", fill.crease_angle,
+          "With --sharp auto: an edge whose faces meet at more than this many degrees is a\n"
+          "crease (a weaker one, down to 30, may continue a crease across a hole)")
+      ->check(CLI::Range(1.0, 179.0))
+      ->capture_default_str();
   fill_cmd->add_flag("--json", fill.json, "Print the fill report as JSON");
   fill_cmd->add_flag("--binary", fill.binary, "Write binary PLY (doubles) or binary STL (floats)");
   fill_cmd->add_flag("--strict", fill.strict, "Exit with 3 when a selected hole is left open");
+
+  SharpenArgs sharpen;
+  auto* sharpen_cmd = app.add_subcommand(
+      "sharpen",
+      "Fill a hole and restore the sharp edge through it from four points picked along the\n"
+      "crease (seed 000 §4.2): P1, P2 on one side of the hole (P2 nearest it), P3, P4 on the\n"
+      "other (P3 nearest). The Hermite curve runs P2 -> P3 leaving along P1->P2 and arriving\n"
+      "along P3->P4; the points are snapped onto the surface first");
+  sharpen_cmd->add_option("FILE", sharpen.file, "Mesh file with the hole")->required();
+  sharpen_cmd->add_option("-o,--output", sharpen.output, "Where to write the result")->required();
+  sharpen_cmd->add_option("--hole", sharpen.hole, "Hole id (see `touchmend holes`)")->required();
+  sharpen_cmd
+      ->add_option("--points", sharpen.points,
+                   "P1;P2;P3;P4 as X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z (quote it in the shell)")
+      ->required();
+  sharpen_cmd
+      ->add_option("--k1", sharpen.k1,
+                   "Start tangent length (model units; default: the circular-arc length\n"
+                   "for the turn between the two directions, = |P3-P2| when straight)")
+      ->check(CLI::PositiveNumber);
+  sharpen_cmd->add_option("--k4", sharpen.k4, "End tangent length (default as --k1)")
+      ->check(CLI::PositiveNumber);
+  sharpen_cmd
+      ->add_option("--method", sharpen.method,
+                   "split: fill the hole on both sides of the sampled curve (the crease by\n"
+                   "construction; closer to ground truth on the shared cases); push-down: the\n"
+                   "thesis' tool - snap the patch onto the guiding surface, push its vertices to\n"
+                   "the curve (Algorithms V, VI), smooth the rest (Algorithm VII)")
+      ->check(CLI::IsMember({"split", "push-down"}))
+      ->capture_default_str();
+  sharpen_cmd
+      ->add_option("--depth", sharpen.depth,
+                   "push-down only: push this far past the curve (free-form edges)")
+      ->check(CLI::NonNegativeNumber);
+  sharpen_cmd->add_option("--shape", sharpen.shape, "Shape of the first fill: flat, fair or auto")
+      ->check(CLI::IsMember({"flat", "fair", "auto"}))
+      ->capture_default_str();
+  sharpen_cmd
+      ->add_option("--refine-iterations", sharpen.refine_iterations, "Rounds of Liepa refinement")
+      ->check(CLI::Range(1, 5))
+      ->capture_default_str();
+  sharpen_cmd->add_flag("--json", sharpen.json, "Print JSON");
+  sharpen_cmd->add_flag("--binary", sharpen.binary, "Binary PLY/STL output");
+
+  GapsArgs gaps;
+  auto* gaps_cmd = app.add_subcommand(
+      "gaps",
+      "List gaps: runs of boundary vertices facing another boundary (or a distant part of the\n"
+      "same one) across empty space, e.g. between two registered scans or a cut-out strip");
+  gaps_cmd->add_option("FILE", gaps.file, "Mesh file")->required();
+  gaps_cmd
+      ->add_option("--max-width", gaps.max_width,
+                   "Widest gap (model units; default 3x the mean boundary edge length)")
+      ->check(CLI::NonNegativeNumber);
+  gaps_cmd->add_flag("--json", gaps.json, "Print JSON (with the vertex runs)");
+
+  BridgeArgs bridge;
+  auto* bridge_cmd = app.add_subcommand(
+      "bridge",
+      "Bridge gaps with a zipper triangulation (each triangle checked like a manual stitch:\n"
+      "never flipped, non-manifold or intersecting) and close the small holes left at the ends");
+  bridge_cmd->add_option("FILE", bridge.file, "Mesh file")->required();
+  bridge_cmd->add_option("-o,--output", bridge.output, "Where to write the result")->required();
+  auto* bridge_all = bridge_cmd->add_flag("--all", bridge.all, "Bridge every gap found");
+  auto* bridge_ids =
+      bridge_cmd->add_option("--gap", bridge.gap_ids, "Gap ids (see `touchmend gaps`)");
+  bridge_all->excludes(bridge_ids);
+  bridge_cmd->add_option("--max-width", bridge.max_width, "As for `gaps`")
+      ->check(CLI::NonNegativeNumber);
+  bridge_cmd->add_flag("--json", bridge.json, "Print JSON");
+  bridge_cmd->add_flag("--binary", bridge.binary, "Binary PLY/STL output");
 
   JobArgs job;
   std::string job_near_text;
@@ -153,6 +239,18 @@ int main(int argc, char** argv) {
   }
   try {
     if (*info_cmd) return run_info(info, std::cout, std::cerr);
+    if (*sharpen_cmd) {
+      return remote.server.empty() ? run_sharpen(sharpen, std::cout, std::cerr)
+                                   : run_sharpen_remote(sharpen, remote, std::cout, std::cerr);
+    }
+    if (*gaps_cmd) {
+      return remote.server.empty() ? run_gaps(gaps, std::cout, std::cerr)
+                                   : run_gaps_remote(gaps, remote, std::cout, std::cerr);
+    }
+    if (*bridge_cmd) {
+      return remote.server.empty() ? run_bridge(bridge, std::cout, std::cerr)
+                                   : run_bridge_remote(bridge, remote, std::cout, std::cerr);
+    }
     if (*holes_cmd) {
       return remote.server.empty() ? run_holes(holes, std::cout, std::cerr)
                                    : run_holes_remote(holes, remote, std::cout, std::cerr);

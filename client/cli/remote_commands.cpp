@@ -107,6 +107,13 @@ bool make_selection(const FillArgs& args, v1::HoleSelection& selection, v1::Fill
     err << "error: --shape must be flat, fair or auto\n";
     return false;
   }
+  if (args.sharp == "auto")
+    options.set_sharp(v1::SHARP_AUTO);
+  else if (args.sharp != "off") {
+    err << "error: --sharp must be off or auto\n";
+    return false;
+  }
+  options.set_crease_angle_deg(args.crease_angle);
   return true;
 }
 
@@ -458,6 +465,162 @@ int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, st
   err << "error: unknown job action " << args.action
       << " (submit, status, wait, cancel, fetch, list)\n";
   return kExitUsage;
+}
+
+namespace {
+
+//! Uploads FILE into a temporary session, runs \p edit, exports into OUTPUT.
+template <typename Edit>
+int edit_remotely(const RemoteArgs& remote, const std::string& file, const std::string& output,
+                  bool binary, std::ostream& err, v1::EditResponse& response, Edit edit) {
+  v1::MeshFormat out_format;
+  if (!wire_format(output, out_format)) {
+    err << "error: " << output
+        << ": unknown output extension (expected .stl, .obj, .off or .ply)\n";
+    return kExitUsage;
+  }
+  int code = kExitOk;
+  auto channel = connect(remote, err, code);
+  if (!channel) return code;
+  net::RepairClient client(channel);
+  TemporarySession session{client, {}};
+  if (int c = upload_into_session(client, file, session, err); c != kExitOk) return c;
+  if (Status s = edit(client, session.id, response); !s.is_ok()) return report(s, err, file);
+  std::string bytes;
+  if (Status s = client.export_mesh(session.id, out_format, binary, bytes); !s.is_ok())
+    return report(s, err, "export");
+  if (!write_output(output, bytes, err)) return kExitBadInput;
+  return kExitOk;
+}
+
+//! The edit's one-line summary (and where it was written), or \p fields with it as JSON.
+void print_summary(const v1::EditResponse& response, bool json, nlohmann::json fields,
+                   const std::string& output, std::ostream& out) {
+  if (json) {
+    fields["summary"] = response.summary();
+    fields["version"] = response.version();
+    out << fields.dump(2) << "\n";
+  } else {
+    out << response.summary() << "\nwrote " << output << "\n";
+  }
+}
+
+v1::Point3 wire_point(const geometry::Vec3& p) {
+  v1::Point3 q;
+  q.set_x(p[0]);
+  q.set_y(p[1]);
+  q.set_z(p[2]);
+  return q;
+}
+
+}  // namespace
+
+int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::ostream& out,
+                       std::ostream& err) {
+  geometry::HermitePoints points;
+  if (!parse_points(args.points, points)) {
+    err << "error: --points expects four points X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z, got '" << args.points
+        << "'\n";
+    return kExitUsage;
+  }
+  if (args.depth != 0 && args.method != "push-down") {
+    err << "error: --depth applies to --method push-down\n";
+    return kExitUsage;
+  }
+  v1::SharpenRequest request;
+  request.set_hole_id(args.hole);
+  for (const auto& p : {points.p1, points.p2, points.p3, points.p4})
+    *request.add_points() = wire_point(p);
+  request.set_k1(args.k1);
+  request.set_k4(args.k4);
+  request.set_method(args.method == "push-down" ? v1::SHARPEN_PUSH_DOWN : v1::SHARPEN_SPLIT);
+  request.set_depth(args.depth);
+  FillArgs fill;
+  fill.all = true;
+  fill.shape = args.shape;
+  fill.refine_iterations = args.refine_iterations;
+  v1::HoleSelection unused;
+  if (!make_selection(fill, unused, *request.mutable_fill(), err)) return kExitUsage;
+  v1::EditResponse response;
+  const int code = edit_remotely(
+      remote, args.file, args.output, args.binary, err, response,
+      [&](net::RepairClient& client, const std::string& session, v1::EditResponse& r) {
+        request.set_session_id(session);
+        return client.sharpen(request, r);
+      });
+  if (code != kExitOk) return code;
+  print_summary(response, args.json,
+                {{"input", args.file},
+                 {"output", args.output},
+                 {"server", remote.server},
+                 {"hole", args.hole},
+                 {"method", args.method}},
+                args.output, out);
+  return kExitOk;
+}
+
+int run_gaps_remote(const GapsArgs& args, const RemoteArgs& remote, std::ostream& out,
+                    std::ostream& err) {
+  int code = kExitOk;
+  auto channel = connect(remote, err, code);
+  if (!channel) return code;
+  net::RepairClient client(channel);
+  TemporarySession session{client, {}};
+  if (int c = upload_into_session(client, args.file, session, err); c != kExitOk) return c;
+  v1::ListGapsRequest request;
+  request.set_session_id(session.id);
+  request.set_max_width(args.max_width);
+  v1::ListGapsResponse response;
+  if (Status s = client.list_gaps(request, response); !s.is_ok()) return report(s, err, args.file);
+  if (args.json) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& g : response.gaps())
+      list.push_back({{"id", g.id()},
+                      {"hole_a", g.hole_a()},
+                      {"hole_b", g.hole_b()},
+                      {"cyclic", g.cyclic()},
+                      {"mean_width", g.mean_width()},
+                      {"max_width", g.max_width()},
+                      {"length", g.length()},
+                      {"run_a", g.run_a()},
+                      {"run_b", g.run_b()}});
+    out << nlohmann::json{{"file", args.file}, {"server", remote.server}, {"gaps", list}}.dump(2)
+        << "\n";
+    return kExitOk;
+  }
+  if (response.gaps().empty())
+    out << "no gaps: no two boundary runs face each other within the width\n";
+  for (const auto& g : response.gaps())
+    out << fmt::format(
+        "gap {:>4}: loops {} and {}, {} and {} vertices, mean width {:.6g}, max "
+        "{:.6g}, length {:.6g}{}\n",
+        g.id(), g.hole_a(), g.hole_b(), g.run_a_size(), g.run_b_size(), g.mean_width(),
+        g.max_width(), g.length(), g.cyclic() ? " (all around)" : "");
+  return kExitOk;
+}
+
+int run_bridge_remote(const BridgeArgs& args, const RemoteArgs& remote, std::ostream& out,
+                      std::ostream& err) {
+  if (args.all == !args.gap_ids.empty()) {
+    err << "error: choose exactly one of --all or --gap ID...\n";
+    return kExitUsage;
+  }
+  v1::BridgeGapsRequest request;
+  if (args.all) request.set_all(true);
+  for (const auto id : args.gap_ids) request.mutable_ids()->add_ids(id);
+  request.set_max_width(args.max_width);
+  v1::EditResponse response;
+  const int code = edit_remotely(
+      remote, args.file, args.output, args.binary, err, response,
+      [&](net::RepairClient& client, const std::string& session, v1::EditResponse& r) {
+        request.set_session_id(session);
+        return client.bridge_gaps(request, r);
+      });
+  if (code != kExitOk) return code;
+  print_summary(response, args.json,
+                {{"input", args.file}, {"output", args.output}, {"server", remote.server}},
+                args.output, out);
+  return kExitOk;
 }
 
 }  // namespace touchmend::cli

@@ -74,6 +74,10 @@ nlohmann::json to_json(const geometry::HoleFillReport& r) {
   j["shape"] = geometry::to_string(r.shape);
   j["shape_reason"] = r.shape_reason;
   j["pieces"] = r.pieces;
+  if (!r.creases.empty()) {
+    j["creases"] = r.creases;
+    j["crease_curves"] = r.crease_curves;
+  }
   j["angles_closed"] = r.angles_closed;
   j["refinement_rounds"] = r.refinement_rounds;
   j["splits"] = r.splits;
@@ -132,6 +136,8 @@ std::string fill_text(const geometry::HoleFillReport& r) {
       "{} refinement rounds, {:.2f} ms\n",
       r.hole_id, r.boundary_vertices, geometry::to_string(r.method), geometry::to_string(r.shape),
       r.shape_reason, r.faces_added, r.vertices_added, r.refinement_rounds, r.seconds * 1e3);
+  if (!r.creases.empty() && r.crease_curves == 0)
+    out += fmt::format("             sharp edges: {} (none retained)\n", r.creases);
   for (const std::string& w : r.warnings) out += fmt::format("             warning: {}\n", w);
   return out;
 }

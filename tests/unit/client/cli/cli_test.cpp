@@ -13,6 +13,7 @@
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_io.h"
 #include "tests/support/cases.h"
+#include "tests/support/mesh_factory.h"
 
 namespace touchmend::cli {
 namespace {
@@ -62,6 +63,92 @@ class Cli : public ::testing::Test {
   fs::path dir_;
   std::string spot_;
 };
+
+//! Loads an output file and returns (clean, boundary edges).
+std::pair<bool, std::size_t> closedness(const std::string& file) {
+  const auto read = geometry::read_mesh_file(file);
+  if (!read.ok) return {false, 0};
+  const auto built = geometry::build_mesh(read.soup);
+  return {built.report.is_clean(), built.report.boundary_edges};
+}
+
+TEST_F(Cli, FillSharpAutoRetainsTheCreases) {
+  const std::string fandisk = testing::shared_data_dir() + "/cases/fandisk_sharp/holed.off";
+  const CliRun r = run("fill " + fandisk + " -o " + path("out.off") + " --all --sharp auto --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["filled"], 3);
+  for (const auto& h : j["holes"]) {
+    EXPECT_EQ(h["method"], "crease-split") << h.dump();
+    EXPECT_GE(h["crease_curves"].get<int>(), 1);
+  }
+  const auto [clean, boundary] = closedness(path("out.off"));
+  EXPECT_TRUE(clean);
+  EXPECT_EQ(boundary, 0u);
+  EXPECT_EQ(run("fill " + fandisk + " -o " + path("o.off") + " --all --sharp sometimes").code,
+            kExitUsage);
+  EXPECT_EQ(run("fill " + fandisk + " -o " + path("o.off") + " --all --crease-angle 0").code,
+            kExitUsage);
+}
+
+TEST_F(Cli, SharpenRetainsAnEdgeFromFourPoints) {
+  const std::string fandisk = testing::shared_data_dir() + "/cases/fandisk_sharp/holed.off";
+  // Hole 1444 lies on the straight crease x = 4.828, z = 0 (along y).
+  const std::string points = "'4.828,15.2,0;4.828,14.795,0;4.828,14.203,0;4.828,13.8,0'";
+  for (const std::string method : {"split", "push-down"}) {
+    const CliRun r = run("sharpen " + fandisk + " -o " + path(method + ".off") +
+                         " --hole 1444 --points " + points + " --method " + method + " --json");
+    ASSERT_EQ(r.code, 0) << method << ": " << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["method"], method);
+    EXPECT_TRUE(j["fill"]["filled"].get<bool>());
+    if (method == "push-down") {
+      EXPECT_GT(j["pushed"].get<int>(), 0);
+    }
+    const auto read = geometry::read_mesh_file(path(method + ".off"));
+    ASSERT_TRUE(read.ok);
+    const auto built = geometry::build_mesh(read.soup);
+    EXPECT_TRUE(built.report.is_clean());
+    EXPECT_EQ(geometry::find_holes(built.mesh).holes.size(), 2u);  // the other two stay open
+  }
+  const std::string out = " -o " + path("x.off");
+  EXPECT_EQ(run("sharpen " + fandisk + out + " --hole 1444 --points '1,2,3;4,5,6'").code,
+            kExitUsage);
+  EXPECT_EQ(run("sharpen " + fandisk + out + " --hole 7 --points " + points).code, kExitBadInput);
+  EXPECT_EQ(
+      run("sharpen " + fandisk + out + " --hole 1444 --points " + points + " --depth 0.1").code,
+      kExitUsage);  // --depth needs push-down
+  const CliRun far =
+      run("sharpen " + fandisk + out + " --hole 1444 --points '0,0,90;0,0,91;0,0,92;0,0,93'");
+  EXPECT_EQ(far.code, kExitBadInput);
+  EXPECT_NE(far.err.find("not on the surface"), std::string::npos) << far.err;
+  EXPECT_FALSE(fs::exists(path("x.off")));
+}
+
+TEST_F(Cli, GapsAndBridgeCloseABandCutAroundACube) {
+  const geometry::MeshSoup band = testing::remove_faces(
+      testing::cube(8), [](const geometry::Vec3& c) { return c[0] > 3 && c[0] < 4; });
+  ASSERT_TRUE(geometry::write_mesh_file(geometry::build_mesh(band).mesh, path("band.off"), {}).ok);
+  const CliRun listed = run("gaps " + path("band.off") + " --json");
+  ASSERT_EQ(listed.code, 0) << listed.err;
+  const auto j = nlohmann::json::parse(listed.out);
+  ASSERT_EQ(j["gaps"].size(), 1u);
+  EXPECT_TRUE(j["gaps"][0]["cyclic"].get<bool>());
+  EXPECT_NEAR(j["gaps"][0]["mean_width"].get<double>(), 1.0, 1e-9);
+  const CliRun text = run("gaps " + path("band.off"));
+  EXPECT_NE(text.out.find("all around"), std::string::npos) << text.out;
+  const CliRun bridged = run("bridge " + path("band.off") + " -o " + path("closed.ply") + " --all");
+  ASSERT_EQ(bridged.code, 0) << bridged.err;
+  EXPECT_NE(bridged.out.find("bridged 1 of 1"), std::string::npos) << bridged.out;
+  const auto [clean, boundary] = closedness(path("closed.ply"));
+  EXPECT_TRUE(clean);
+  EXPECT_EQ(boundary, 0u);
+  EXPECT_EQ(run("bridge " + path("band.off") + " -o " + path("x.off") + " --gap 3").code,
+            kExitBadInput);
+  EXPECT_EQ(run("bridge " + path("band.off") + " -o " + path("x.off")).code, kExitUsage);
+  EXPECT_EQ(run("gaps " + path("band.off") + " --max-width 0.5").out.find("no gaps"), 0u);
+  EXPECT_EQ(run("--server 127.0.0.1:1 gaps " + path("band.off")).code, kExitServer);
+}
 
 TEST_F(Cli, HelpAndUsageErrors) {
   EXPECT_EQ(run("--help").code, 0);

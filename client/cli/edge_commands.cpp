@@ -1,0 +1,267 @@
+// `touchmend sharpen`, `touchmend gaps`, `touchmend bridge`: sharp-edge retaining from four
+// picked points and gap bridging (seed 000 ch. 4) for automated clients, in process.
+
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "client/cli/commands.h"
+#include "client/cli/reports.h"
+#include "server/geometry/gap_bridging.h"
+#include "server/geometry/holes.h"
+#include "server/geometry/mesh_io.h"
+#include "server/geometry/metrics.h"
+#include "server/geometry/sharpen.h"
+
+namespace touchmend::cli {
+namespace {
+
+//! Writes atomically; prints the error and returns false on failure.
+bool write_result(geometry::Mesh& mesh, const std::string& path, bool binary, std::ostream& err,
+                  geometry::WriteResult& written) {
+  mesh.garbage_collection();
+  geometry::WriteOptions wo;
+  wo.binary = binary;
+  written = geometry::write_mesh_file(mesh, path, wo);
+  if (!written.ok) {
+    err << "error: " << written.error << "\n";
+    return false;
+  }
+  for (const std::string& w : written.warnings) err << "warning: " << w << "\n";
+  return true;
+}
+
+nlohmann::json point_json(const geometry::Vec3& p) {
+  return {p[0], p[1], p[2]};
+}
+
+nlohmann::json gap_json(const geometry::Mesh& mesh, const geometry::Gap& g) {
+  nlohmann::json a = nlohmann::json::array(), b = nlohmann::json::array();
+  for (const auto v : g.run_a) a.push_back(v.idx());
+  for (const auto v : g.run_b) b.push_back(v.idx());
+  return {{"id", g.id},
+          {"hole_a", g.hole_a},
+          {"hole_b", g.hole_b},
+          {"cyclic", g.cyclic},
+          {"mean_width", g.mean_width},
+          {"max_width", g.max_width},
+          {"length", g.length},
+          {"start", point_json(mesh.point(g.run_a.front()))},
+          {"run_a", a},
+          {"run_b", b}};
+}
+
+std::vector<geometry::Gap> detect(const geometry::Mesh& mesh, double max_width) {
+  geometry::GapOptions options;
+  options.max_width = max_width;
+  return geometry::find_gaps(mesh, geometry::find_holes(mesh).holes, options);
+}
+
+}  // namespace
+
+bool parse_points(const std::string& text, geometry::HermitePoints& points) {
+  std::vector<geometry::Vec3> parsed;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ';')) {
+    geometry::Vec3 p;
+    if (!parse_point(item, p)) return false;
+    parsed.push_back(p);
+  }
+  if (parsed.size() != 4) return false;
+  points = {parsed[0], parsed[1], parsed[2], parsed[3]};
+  return true;
+}
+
+int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
+  geometry::MeshFormat format;
+  if (!geometry::format_from_path(args.output, format)) {
+    err << "error: " << args.output
+        << ": unknown output extension (expected .stl, .obj, .off or .ply)\n";
+    return kExitUsage;
+  }
+  geometry::HermitePoints picks;
+  if (!parse_points(args.points, picks)) {
+    err << "error: --points expects four points X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z (P1, P2 on one side of "
+           "the hole, P2 nearest it; P3 nearest on the other side, then P4), got '"
+        << args.points << "'\n";
+    return kExitUsage;
+  }
+  geometry::SharpenOptions options;
+  if (args.method == "split")
+    options.method = geometry::SharpenMethod::Split;
+  else if (args.method == "push-down")
+    options.method = geometry::SharpenMethod::PushDown;
+  else {
+    err << "error: --method must be split or push-down\n";
+    return kExitUsage;
+  }
+  if (args.depth != 0 && options.method != geometry::SharpenMethod::PushDown) {
+    err << "error: --depth applies to --method push-down (the split variant puts the crease "
+           "exactly on the curve)\n";
+    return kExitUsage;
+  }
+  if (!geometry::parse_patch_shape(args.shape, options.fill.shape)) {
+    err << "error: --shape must be flat, fair or auto\n";
+    return kExitUsage;
+  }
+  options.fill.refine_iterations = args.refine_iterations;
+  options.hermite.k1 = args.k1;
+  options.hermite.k4 = args.k4;
+  options.depth = args.depth;
+  auto loaded = load(args.file, err);
+  if (!loaded) return kExitBadInput;
+  geometry::Mesh& mesh = loaded->built.mesh;
+  const auto holes = geometry::find_holes(mesh).holes;
+  const auto index = geometry::find_hole_by_id(holes, args.hole);
+  if (!index) {
+    err << fmt::format(
+        "error: {}: no hole with id {} (the mesh has {} holes; see `touchmend "
+        "holes`)\n",
+        args.file, args.hole, holes.size());
+    return kExitBadInput;
+  }
+  const geometry::SharpenResult r = geometry::sharpen_hole(mesh, holes[*index], picks, options);
+  if (!r.ok) {
+    err << fmt::format("error: hole {}: {}\n", args.hole, r.failure);
+    return kExitBadInput;
+  }
+  geometry::WriteResult written;
+  if (!write_result(mesh, args.output, args.binary, err, written)) return kExitBadInput;
+  if (args.json) {
+    nlohmann::json j{{"input", args.file},
+                     {"output", args.output},
+                     {"hole", args.hole},
+                     {"method", geometry::to_string(options.method)},
+                     {"points",
+                      {point_json(r.points.p1), point_json(r.points.p2), point_json(r.points.p3),
+                       point_json(r.points.p4)}},
+                     {"fill", to_json(r.fill)},
+                     {"snapped", r.snap.moved},
+                     {"split_edges", r.snap.splits},
+                     {"pushed", r.pushed},
+                     {"smoothed", r.smooth.moved},
+                     {"patch_faces", r.patch.size()},
+                     {"vertices_written", written.vertices_written},
+                     {"faces_written", written.faces_written}};
+    out << j.dump(2) << "\n";
+  } else {
+    out << fill_text(r.fill);
+    if (options.method == geometry::SharpenMethod::PushDown)
+      out << fmt::format(
+          "sharp edge retained (push-down): {} vertices snapped onto the guiding surface, {} "
+          "edges split, {} pushed to the curve{}, {} smoothed\n",
+          r.snap.moved, r.snap.splits, r.pushed,
+          options.depth > 0 ? fmt::format(" (and up to {} past it)", options.depth) : "",
+          r.smooth.moved);
+    else
+      out << "sharp edge retained (split): the hole was filled on both sides of the curve\n";
+    out << fmt::format("wrote {} ({} vertices, {} faces)\n", args.output, written.vertices_written,
+                       written.faces_written);
+  }
+  return kExitOk;
+}
+
+int run_gaps(const GapsArgs& args, std::ostream& out, std::ostream& err) {
+  if (args.max_width < 0) {
+    err << "error: --max-width must not be negative\n";
+    return kExitUsage;
+  }
+  auto loaded = load(args.file, err);
+  if (!loaded) return kExitBadInput;
+  const geometry::Mesh& mesh = loaded->built.mesh;
+  const auto gaps = detect(mesh, args.max_width);
+  if (args.json) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& g : gaps) list.push_back(gap_json(mesh, g));
+    out << nlohmann::json{{"file", args.file}, {"gaps", list}}.dump(2) << "\n";
+    return kExitOk;
+  }
+  if (gaps.empty()) {
+    out << "no gaps: no two boundary runs face each other within the width\n";
+    return kExitOk;
+  }
+  out << fmt::format("{:>4} {:>8} {:>8} {:>7} {:>7} {:>12} {:>12} {:>12}\n", "gap", "loop a",
+                     "loop b", "verts a", "verts b", "mean width", "max width", "length");
+  for (const auto& g : gaps)
+    out << fmt::format("{:>4} {:>8} {:>8} {:>7} {:>7} {:>12.6g} {:>12.6g} {:>12.6g}{}\n", g.id,
+                       g.hole_a, g.hole_b, g.run_a.size(), g.run_b.size(), g.mean_width,
+                       g.max_width, g.length, g.cyclic ? "  (all around)" : "");
+  return kExitOk;
+}
+
+int run_bridge(const BridgeArgs& args, std::ostream& out, std::ostream& err) {
+  geometry::MeshFormat format;
+  if (!geometry::format_from_path(args.output, format)) {
+    err << "error: " << args.output
+        << ": unknown output extension (expected .stl, .obj, .off or .ply)\n";
+    return kExitUsage;
+  }
+  if (args.all == !args.gap_ids.empty()) {
+    err << "error: choose exactly one of --all or --gap ID...\n";
+    return kExitUsage;
+  }
+  if (args.max_width < 0) {
+    err << "error: --max-width must not be negative\n";
+    return kExitUsage;
+  }
+  auto loaded = load(args.file, err);
+  if (!loaded) return kExitBadInput;
+  geometry::Mesh& mesh = loaded->built.mesh;
+  const auto gaps = detect(mesh, args.max_width);
+  std::vector<const geometry::Gap*> selected;
+  if (args.all) {
+    for (const auto& g : gaps) selected.push_back(&g);
+  } else {
+    for (const auto id : args.gap_ids) {
+      if (id >= gaps.size()) {
+        err << fmt::format(
+            "error: {}: no gap with id {} (the mesh has {} gaps; see `touchmend "
+            "gaps`)\n",
+            args.file, id, gaps.size());
+        return kExitBadInput;
+      }
+      selected.push_back(&gaps[id]);
+    }
+  }
+  nlohmann::json results = nlohmann::json::array();
+  std::size_t bridged = 0, faces = 0;
+  std::string text;
+  for (const geometry::Gap* g : selected) {
+    const geometry::DetectedGapBridge b = geometry::bridge_detected_gap(mesh, *g);
+    std::size_t end_faces = 0;
+    for (const auto& f : b.end_fills) end_faces += f.faces_added;
+    bridged += b.zip.ok ? 1 : 0;
+    faces += b.zip.faces.size() + end_faces;
+    nlohmann::json j{{"gap", g->id}, {"bridged", b.zip.ok}};
+    if (b.zip.ok) {
+      j["zipper_faces"] = b.zip.faces.size();
+      j["end_faces"] = end_faces;
+      text += fmt::format("gap {:>4}: bridged, {} zipper triangles, {} at the ends\n", g->id,
+                          b.zip.faces.size(), end_faces);
+    } else {
+      j["reason"] = b.zip.reason;
+      text += fmt::format("gap {:>4}: LEFT OPEN: {}\n", g->id, b.zip.reason);
+    }
+    results.push_back(j);
+  }
+  geometry::WriteResult written;
+  if (!write_result(mesh, args.output, args.binary, err, written)) return kExitBadInput;
+  if (args.json) {
+    out << nlohmann::json{{"input", args.file},        {"output", args.output},
+                          {"gaps_found", gaps.size()}, {"bridged", bridged},
+                          {"faces_added", faces},      {"gaps", results}}
+               .dump(2)
+        << "\n";
+  } else {
+    out << text;
+    out << fmt::format("bridged {} of {} selected gaps ({} gaps found), {} faces added\n", bridged,
+                       selected.size(), gaps.size(), faces);
+    out << fmt::format("wrote {} ({} vertices, {} faces)\n", args.output, written.vertices_written,
+                       written.faces_written);
+  }
+  return kExitOk;
+}
+
+}  // namespace touchmend::cli
