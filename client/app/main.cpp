@@ -47,6 +47,8 @@ struct Args {
   double falcon_gain = 1800;
   bool stats = false;
   int exit_after_fills = 0;
+  std::string tool = "fill";
+  double push_step = 0;
 };
 
 v1::MeshFormat format_of(const std::string& path) {
@@ -77,6 +79,29 @@ view::Scene make_scene(const app::StationView& v, const haptics::ToolState& tool
          14});
   }
   for (const auto& c : v.cursors) scene.cursors.push_back({c.position, {1.0f, 0.3f, 1.0f}, 14});
+  // Sharp-edge picks, numbered by colour (P1 red, P2 orange, P3 green, P4 blue), the previewed
+  // curve in cyan; the stitch being dragged in white, its snap candidate in yellow.
+  const Eigen::Vector3f pick_colours[4] = {
+      {1.0f, 0.2f, 0.2f}, {1.0f, 0.6f, 0.1f}, {0.2f, 0.9f, 0.3f}, {0.3f, 0.5f, 1.0f}};
+  for (std::size_t i = 0; i < v.picks.size() && i < 4; ++i)
+    scene.cursors.push_back({v.picks[i], pick_colours[i], 16});
+  if (v.curve.size() >= 2) scene.polylines.push_back({v.curve, {0.2f, 1.0f, 1.0f}});
+  // The guiding surface being previewed: its bottom and top lines and rungs, dimmer.
+  for (std::size_t i = 0; i + 2 < v.guide.size(); i += 3) {
+    const std::size_t triangle = i / 3;
+    if (triangle % 2 == 0) {  // (bottom k, bottom k+1, top k+1)
+      scene.polylines.push_back({{v.guide[i], v.guide[i + 1], v.guide[i + 2]}, {0.1f, 0.5f, 0.5f}});
+    } else {  // (bottom k, top k+1, top k)
+      scene.polylines.push_back({{v.guide[i + 1], v.guide[i + 2], v.guide[i]}, {0.1f, 0.5f, 0.5f}});
+    }
+  }
+  if (v.stitch.size() >= 2) {
+    scene.polylines.push_back({{v.stitch[0], v.stitch[1]}, {1.0f, 1.0f, 1.0f}});
+    if (v.stitch.size() == 3) {
+      scene.polylines.push_back({{v.stitch[0], v.stitch[2], v.stitch[1]}, {1.0f, 0.9f, 0.2f}});
+      scene.cursors.push_back({v.stitch[2], {1.0f, 0.9f, 0.2f}, 16});
+    }
+  }
   return scene;
 }
 
@@ -84,8 +109,8 @@ std::string status_line(const app::StationView& v, const haptics::HapticLoop& lo
                         const device::SafetyFilter& safe) {
   const haptics::LoopStats s = loop.stats();
   return fmt::format(
-      "session {} v{} | {} holes{} | loop {} ticks, period error p99 {:.0f} us | {} | {}",
-      v.session_id, v.version, v.holes ? v.holes->size() : 0,
+      "session {} v{} | {} | {} holes{} | loop {} ticks, period error p99 {:.0f} us | {} | {}",
+      v.session_id, v.version, v.tool, v.holes ? v.holes->size() : 0,
       v.highlighted >= 0
           ? fmt::format(" (hole {} under the tool)", (*v.holes)[std::size_t(v.highlighted)].id)
           : "",
@@ -121,6 +146,23 @@ int main(int argc, char** argv) {
                  "Save the last frame as PNG when stopping (works under Xvfb)");
   cli.add_option("--record", a.record,
                  "Record the device's trajectory to FILE (replay it with --device replay:FILE)");
+  cli.add_option("--tool", a.tool,
+                 "What the button does. fill: press near a highlighted hole to fill it.\n"
+                 "sharp-edge: press at four points along a crease around a filled hole (P1, P2\n"
+                 "on one side, P2 nearest the hole; P3, P4 on the other; button 2 takes the last\n"
+                 "back), the server previews the Hermite curve and the guiding surface (K / J:\n"
+                 "tangents 10% longer / shorter, live); press to confirm it (the patch\n"
+                 "snaps onto the guiding surface); hold and sweep to push the patch down to the\n"
+                 "curve (the tool is held to the guiding surface); button 2 smooths and\n"
+                 "finishes (seed 000 §4.2). Keyboard stylus: space = button 1, B = button 2.\n"
+                 "stitch: press on a boundary edge, drag to the other surface (the nearest\n"
+                 "boundary vertex lights up), release: one stitch triangle (Algorithm VIII)")
+      ->check(CLI::IsMember({"fill", "sharp-edge", "stitch"}))
+      ->capture_default_str();
+  cli.add_option("--push-step", a.push_step,
+                 "sharp-edge: push distance per tool step, model units (0 = 1/400 of the "
+                 "model's diagonal)")
+      ->check(CLI::NonNegativeNumber);
   cli.add_option("--rate", a.rate, "Haptic loop rate in Hz (100-4000)")
       ->check(CLI::Range(100.0, 4000.0))
       ->capture_default_str();
@@ -199,6 +241,10 @@ int main(int argc, char** argv) {
   }
   app::StationOptions station_options;
   station_options.session_id = a.session;
+  station_options.tool = a.tool == "sharp-edge" ? app::StationTool::SharpEdge
+                         : a.tool == "stitch"   ? app::StationTool::Stitch
+                                                : app::StationTool::Fill;
+  station_options.push_step = a.push_step;
   if (a.session.empty()) {
     const std::string mesh = a.mesh.empty() ? default_mesh() : a.mesh;
     std::ifstream in(mesh, std::ios::binary);
@@ -258,6 +304,7 @@ int main(int argc, char** argv) {
   const auto started = std::chrono::steady_clock::now();
   auto last_stats = started;
   std::chrono::steady_clock::time_point replay_done{};
+  int tangent_steps_seen = 0;
   while (!g_interrupted) {
     const auto now = std::chrono::steady_clock::now();
     const app::StationView v = station.view();
@@ -268,8 +315,13 @@ int main(int argc, char** argv) {
       if (!viewer->should_close() && viewer->input().quit) break;
       if (viewer->should_close()) break;
       if (sim)
-        sim->set_target(sim_home + viewer->input().target_offset, viewer->input().button ? 1u : 0u);
+        sim->set_target(sim_home + viewer->input().target_offset,
+                        (viewer->input().button ? 1u : 0u) | (viewer->input().button2 ? 2u : 0u));
       if (viewer->input().forces_off) safe.disarm();
+      if (viewer->input().tangent_steps != tangent_steps_seen) {
+        station.adjust_tangents(viewer->input().tangent_steps - tangent_steps_seen);
+        tangent_steps_seen = viewer->input().tangent_steps;
+      }
     }
     // Forces stay requested (unless the operator turned them off): after a homing loss or a
     // cleared fault the safety filter's gate re-arms only once the device is homed, at rest

@@ -1,6 +1,7 @@
 #include "client/app/station.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <unordered_map>
 
@@ -128,6 +129,7 @@ Status Station::start() {
     std::lock_guard lock(mutex_);
     view_.session_id = options_.session_id;
   }
+  publish_tool_state();
   return {};
 }
 
@@ -149,11 +151,13 @@ void Station::publish_surface() {
   std::shared_ptr<const haptics::SurfaceMesh> surface = surface_from_document(doc);
   auto holes = std::make_shared<const std::vector<HoleLoop>>(find_boundary_loops(*surface));
   if (highlight_distance_ <= 0) {
+    // Scales from the first surface: the highlight reach and the push-down step.
     Eigen::AlignedBox3d box;
     for (const auto& p : surface->positions) box.extend(p);
-    highlight_distance_ = options_.highlight_distance > 0
-                              ? options_.highlight_distance
-                              : 0.04 * (box.isEmpty() ? 1.0 : box.diagonal().norm());
+    const double diagonal = box.isEmpty() ? 1.0 : box.diagonal().norm();
+    highlight_distance_ =
+        options_.highlight_distance > 0 ? options_.highlight_distance : 0.04 * diagonal;
+    push_step_ = options_.push_step > 0 ? options_.push_step : diagonal / 400;
   }
   {
     std::lock_guard lock(mutex_);
@@ -245,8 +249,13 @@ void Station::send_samples() {
   if (!loop_ || !interact_) return;
   haptics::ToolSampleOut sample;
   while (loop_->samples().pop(sample)) {
-    const bool pressed = (sample.buttons & options_.fill_button) != 0 &&
-                         (previous_buttons_ & options_.fill_button) == 0;
+    // Button edges against the previous sample.
+    const bool held = (sample.buttons & options_.fill_button) != 0;
+    const bool was_held = (previous_buttons_ & options_.fill_button) != 0;
+    const bool pressed = held && !was_held;
+    const bool released = !held && was_held;
+    const bool second = (sample.buttons & options_.second_button) != 0 &&
+                        (previous_buttons_ & options_.second_button) == 0;
     previous_buttons_ = sample.buttons;
     last_tool_ = sample.proxy;
     auto* t = batch_.mutable_tools()->add_samples();
@@ -261,11 +270,330 @@ void Station::send_samples() {
       samples_sent_.fetch_add(static_cast<std::uint64_t>(batch_.tools().samples_size()));
       batch_.mutable_tools()->clear_samples();
     }
-    if (pressed) {
-      update_highlight(sample.proxy);
-      request_fill(sample.proxy);
+    switch (options_.tool) {
+      case StationTool::Fill:
+        if (pressed) {
+          update_highlight(sample.proxy);
+          request_fill(sample.proxy);
+        }
+        break;
+      case StationTool::SharpEdge:
+        if (pressed)
+          sharp_edge_press(sample.proxy);
+        else if (held)
+          sharp_edge_hold(sample.proxy);
+        else if (released)
+          sharp_edge_release();
+        if (second) sharp_edge_second();
+        break;
+      case StationTool::Stitch:
+        if (pressed)
+          stitch_press(sample.proxy);
+        else if (held)
+          stitch_hold(sample.proxy);
+        else if (released)
+          stitch_release();
+        break;
     }
   }
+}
+
+const char* to_string(StationTool tool) {
+  switch (tool) {
+    case StationTool::Fill:
+      return "fill";
+    case StationTool::SharpEdge:
+      return "sharp-edge";
+    case StationTool::Stitch:
+      return "stitch";
+  }
+  return "?";
+}
+
+namespace {
+
+v1::Point3 wire(const Vec3& p) {
+  v1::Point3 q;
+  q.set_x(p.x());
+  q.set_y(p.y());
+  q.set_z(p.z());
+  return q;
+}
+
+}  // namespace
+
+void Station::publish_tool_state() {
+  std::string phase;
+  if (options_.tool == StationTool::SharpEdge) {
+    switch (sharp_phase_) {
+      case SharpPhase::Picking:
+        phase = fmt::format(": pick P{} of 4", picks_.size() + 1);
+        break;
+      case SharpPhase::Previewed:
+        phase = ": press to confirm the curve";
+        break;
+      case SharpPhase::Snapped:
+        phase = fmt::format(": sweep to push down ({} pushes), button 2 to smooth", pushes_);
+        break;
+    }
+  }
+  std::lock_guard lock(mutex_);
+  view_.tool = to_string(options_.tool) + phase;
+  view_.picks = picks_;
+  view_.curve = curve_;
+  view_.guide = sharp_phase_ == SharpPhase::Previewed ? guide_ : std::vector<Vec3>{};
+  view_.k1 = k1_;
+  view_.k4 = k4_;
+  view_.stitch.clear();
+  if (stitching_) {
+    const auto& s = view_.surface;
+    if (s && stitch_a_ < s->positions.size() && stitch_b_ < s->positions.size()) {
+      view_.stitch.push_back(s->positions[stitch_a_]);
+      view_.stitch.push_back(s->positions[stitch_b_]);
+      if (stitch_target_ >= 0) view_.stitch.push_back(stitch_target_position_);
+    }
+  }
+}
+
+void Station::sharp_edge_press(const Vec3& tool) {
+  v1::SharpEdgeRequest request;
+  request.set_session_id(options_.session_id);
+  v1::SharpEdgeResponse response;
+  if (sharp_phase_ == SharpPhase::Picking) {
+    picks_.push_back(tool);
+    if (picks_.size() == 4) {
+      for (const Vec3& p : picks_) *request.mutable_begin()->add_points() = wire(p);
+      const Status s = client_.sharp_edge(request, response);
+      if (!s.is_ok()) {
+        set_status("sharp edge: " + s.to_string() + " (pick again)");
+        picks_.clear();
+      } else {
+        take_preview(response);
+        sharp_phase_ = SharpPhase::Previewed;
+        set_status(fmt::format("sharp edge: curve through the patch of {} faces; press to confirm",
+                               response.patch_faces()));
+      }
+    }
+  } else if (sharp_phase_ == SharpPhase::Previewed) {
+    request.set_confirm(true);
+    const Status s = client_.sharp_edge(request, response);
+    if (!s.is_ok()) {
+      set_status("sharp edge: " + s.to_string());
+    } else {
+      sharp_phase_ = SharpPhase::Snapped;
+      last_push_ = tool;
+      set_status(fmt::format("sharp edge: {} vertices on the guiding surface; sweep to push",
+                             response.curtain_vertices()));
+    }
+  } else {
+    last_push_ = tool;  // a new sweep starts here
+    constrain_to_guide(tool);
+  }
+  publish_tool_state();
+}
+
+void Station::take_preview(const v1::SharpEdgeResponse& response) {
+  curve_.clear();
+  for (const auto& q : response.curve()) curve_.emplace_back(q.x(), q.y(), q.z());
+  guide_.clear();
+  for (const auto& q : response.guide()) guide_.emplace_back(q.x(), q.y(), q.z());
+  k1_ = response.k1();
+  k4_ = response.k4();
+  // The extrusion direction: bottom to top of the guiding surface's first quad.
+  if (guide_.size() >= 3) {
+    const Vec3 up = guide_[2] - guide_[1];
+    if (up.norm() > 0) guide_normal_ = up.normalized();
+  }
+}
+
+void Station::apply_tangent_steps() {
+  const int steps = tangent_steps_.exchange(0);
+  if (steps == 0 || sharp_phase_ != SharpPhase::Previewed) return;
+  // Live k (the thesis lists real-time adjustment as future work, seed 000 §6.2): the server
+  // answers the new curve and guiding surface, nothing is committed.
+  const double factor = std::pow(1.1, steps);
+  v1::SharpEdgeRequest request;
+  request.set_session_id(options_.session_id);
+  request.mutable_adjust()->set_k1(k1_ * factor);
+  request.mutable_adjust()->set_k4(k4_ * factor);
+  v1::SharpEdgeResponse response;
+  const Status s = client_.sharp_edge(request, response);
+  if (!s.is_ok()) {
+    set_status("sharp edge: " + s.to_string());
+    return;
+  }
+  take_preview(response);
+  set_status(fmt::format("sharp edge: k1 {:.4g}, k4 {:.4g}; press to confirm", k1_, k4_));
+  publish_tool_state();
+}
+
+void Station::constrain_to_guide(const Vec3& tool) {
+  if (!loop_ || curve_.size() < 2) return;
+  // The curve segment nearest the tool; the plane holds that segment and the extrusion
+  // direction (the guiding surface locally).
+  std::size_t best = 0;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i + 1 < curve_.size(); ++i) {
+    const double d = distance_to_segment(tool, curve_[i], curve_[i + 1]);
+    if (d < best_distance) {
+      best_distance = d;
+      best = i;
+    }
+  }
+  const Vec3 tangent = curve_[best + 1] - curve_[best];
+  const Vec3 normal = tangent.cross(guide_normal_);
+  if (!(normal.norm() > 0)) return;
+  haptics::PlaneConstraint plane;
+  plane.active = true;
+  plane.point = closest_on_segment(tool, curve_[best], curve_[best + 1]);
+  plane.normal = normal.normalized();
+  loop_->set_constraint(plane);
+}
+
+void Station::sharp_edge_release() {
+  if (loop_) loop_->set_constraint({});  // the sweep is over: free the tool
+}
+
+void Station::sharp_edge_hold(const Vec3& tool) {
+  if (sharp_phase_ != SharpPhase::Snapped) return;
+  const double step = push_step_;
+  // Algorithm VI moves a vertex by the step per tool sample; a push goes out once the tool has
+  // moved a step, and the server cuts the motion since the last push into samples of one step,
+  // so a slow round trip sends fewer, longer pushes but loses none of the sweep.
+  constrain_to_guide(tool);
+  if ((tool - last_push_).norm() < step) return;
+  v1::SharpEdgeRequest request;
+  request.set_session_id(options_.session_id);
+  auto* push = request.mutable_push();
+  *push->mutable_proxy() = wire(tool);
+  *push->mutable_previous() = wire(last_push_);
+  push->set_face(0xFFFFFFFFu);
+  push->set_step(step);
+  last_push_ = tool;
+  v1::SharpEdgeResponse response;
+  const Status s = client_.sharp_edge(request, response);
+  if (s.is_ok()) {
+    const std::uint64_t before = pushes_;
+    pushes_ += std::max<std::uint64_t>(1, response.push_samples());
+    pushes_done_.fetch_add(pushes_ - before);
+    if (before / 10 != pushes_ / 10) publish_tool_state();
+  }
+}
+
+void Station::sharp_edge_second() {
+  v1::SharpEdgeRequest request;
+  request.set_session_id(options_.session_id);
+  v1::SharpEdgeResponse response;
+  switch (sharp_phase_) {
+    case SharpPhase::Picking:
+      if (!picks_.empty()) picks_.pop_back();  // take the last pick back
+      break;
+    case SharpPhase::Previewed:
+      request.set_cancel(true);
+      client_.sharp_edge(request, response);
+      picks_.clear();
+      curve_.clear();
+      guide_.clear();
+      sharp_phase_ = SharpPhase::Picking;
+      set_status("sharp edge: cancelled");
+      break;
+    case SharpPhase::Snapped: {
+      if (loop_) loop_->set_constraint({});
+      request.set_smooth(true);
+      const Status s = client_.sharp_edge(request, response);
+      set_status(s.is_ok() ? fmt::format("sharp edge: smoothed after {} pushes", pushes_)
+                           : "sharp edge: " + s.to_string());
+      picks_.clear();
+      curve_.clear();
+      guide_.clear();
+      pushes_ = 0;
+      sharp_phase_ = SharpPhase::Picking;
+      break;
+    }
+  }
+  publish_tool_state();
+}
+
+bool Station::nearest_boundary_edge(const Vec3& tool, std::uint32_t& a, std::uint32_t& b) const {
+  std::shared_ptr<const haptics::SurfaceMesh> surface;
+  std::shared_ptr<const std::vector<HoleLoop>> holes;
+  {
+    std::lock_guard lock(mutex_);
+    surface = view_.surface;
+    holes = view_.holes;
+  }
+  if (!surface || !holes) return false;
+  double best = highlight_distance_;
+  bool found = false;
+  for (const HoleLoop& h : *holes)
+    for (std::size_t i = 0; i < h.vertices.size(); ++i) {
+      const std::uint32_t u = h.vertices[i], w = h.vertices[(i + 1) % h.vertices.size()];
+      const double d = distance_to_segment(tool, surface->positions[u], surface->positions[w]);
+      if (d < best) {
+        best = d;
+        a = u;
+        b = w;
+        found = true;
+      }
+    }
+  return found;
+}
+
+void Station::stitch_press(const Vec3& tool) {
+  stitching_ = nearest_boundary_edge(tool, stitch_a_, stitch_b_);
+  stitch_target_ = -1;
+  set_status(stitching_ ? fmt::format("stitch: edge {}-{}; drag to the other surface", stitch_a_,
+                                      stitch_b_)
+                        : "stitch: press on a boundary edge");
+  publish_tool_state();
+}
+
+void Station::stitch_hold(const Vec3& tool) {
+  if (!stitching_) return;
+  std::shared_ptr<const haptics::SurfaceMesh> surface;
+  std::shared_ptr<const std::vector<HoleLoop>> holes;
+  {
+    std::lock_guard lock(mutex_);
+    surface = view_.surface;
+    holes = view_.holes;
+  }
+  if (!surface || !holes) return;
+  // Snap candidates: boundary vertices within reach of the tool; the nearest lights up.
+  const std::int64_t before = stitch_target_;
+  double best = highlight_distance_;
+  stitch_target_ = -1;
+  for (const HoleLoop& h : *holes)
+    for (const std::uint32_t v : h.vertices) {
+      if (v == stitch_a_ || v == stitch_b_) continue;
+      const double d = (surface->positions[v] - tool).norm();
+      if (d < best) {
+        best = d;
+        stitch_target_ = v;
+        stitch_target_position_ = surface->positions[v];
+      }
+    }
+  if (stitch_target_ != before) publish_tool_state();
+}
+
+void Station::stitch_release() {
+  if (!stitching_) return;
+  stitching_ = false;
+  if (stitch_target_ < 0) {
+    set_status("stitch: no boundary vertex near the tool at release");
+  } else {
+    v1::StitchRequest request;
+    request.set_session_id(options_.session_id);
+    request.set_a(stitch_a_);
+    request.set_b(stitch_b_);
+    request.set_t(static_cast<std::uint32_t>(stitch_target_));
+    v1::EditResponse response;
+    const Status s = client_.stitch(request, response);
+    set_status(s.is_ok()
+                   ? fmt::format("stitch: triangle {}-{}-{}", stitch_a_, stitch_b_, stitch_target_)
+                   : "stitch: " + s.to_string());
+  }
+  stitch_target_ = -1;
+  publish_tool_state();
 }
 
 void Station::run_network() {
@@ -278,6 +606,7 @@ void Station::run_network() {
       if (s.code == StatusCode::NotFound) break;  // the session is gone
     }
     publish_surface();
+    apply_tangent_steps();
     // The interact stream dies with the connection; reopen it once the replica is back.
     if (s.is_ok() && interact_ && interact_->finished()) interact_ = client_.interact();
     send_samples();

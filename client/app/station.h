@@ -59,7 +59,24 @@ struct StationView {
   std::uint64_t version = 0;
   std::string status;  //!< last event worth showing (fill result, connection state)
   std::uint64_t fills = 0;
+  std::string tool;          //!< "fill", "sharp-edge" or "stitch", and the tool's step
+  std::vector<Vec3> picks;   //!< sharp edge: the points picked so far (1..4, in order)
+  std::vector<Vec3> curve;   //!< sharp edge: the Hermite curve the server previewed
+  std::vector<Vec3> guide;   //!< sharp edge: the guiding surface (3 points per triangle)
+  double k1 = 0, k4 = 0;     //!< sharp edge: the previewed tangent lengths
+  std::vector<Vec3> stitch;  //!< stitch: the dragged edge's two ends, then the snap candidate
 };
+
+//! What the button does at the station (seed 000 ch. 4's interactions).
+enum class StationTool {
+  Fill,       //!< press near a highlighted hole: fill it
+  SharpEdge,  //!< press 4 times: P1..P4 (button 2 takes the last back) -> the server previews
+              //!< the Hermite curve; press: confirm (snap onto the guiding surface); hold and
+              //!< sweep: push down (one tool sample per step); button 2: smooth, done
+  Stitch,     //!< press on a boundary edge, drag to the other surface, release: one stitch
+              //!< triangle to the boundary vertex nearest the tool (Algorithm VIII)
+};
+const char* to_string(StationTool tool);
 
 struct StationOptions {
   std::string session_id;  //!< open this session (empty: create one and upload mesh_bytes)
@@ -68,7 +85,10 @@ struct StationOptions {
   v1::MeshFormat mesh_format = v1::OFF;
   double highlight_distance = 0;  //!< model units; 0 = 4% of the mesh diagonal
   int samples_per_message = 10;
-  std::uint32_t fill_button = 1;  //!< button mask that requests a fill
+  std::uint32_t fill_button = 1;    //!< button mask of the main button (fill, pick, push)
+  std::uint32_t second_button = 2;  //!< button mask of the second button (take back, finish)
+  StationTool tool = StationTool::Fill;
+  double push_step = 0;  //!< sharp edge: push distance per sample; 0 = 1/400 of the diagonal
 };
 
 class Station {
@@ -89,6 +109,11 @@ class Station {
   std::uint64_t version() const { return version_.load(); }
   std::uint64_t fills_requested() const { return fills_.load(); }
   std::uint64_t samples_sent() const { return samples_sent_.load(); }
+  //! Sharp-edge push samples the server accepted.
+  std::uint64_t pushes() const { return pushes_done_.load(); }
+  //! Sharp edge, while the curve is previewed: scale both tangent lengths by 1.1^steps (any
+  //! thread; the network thread asks the server for the new preview).
+  void adjust_tangents(int steps) { tangent_steps_.fetch_add(steps); }
   //! Tool samples the server acknowledged (network thread).
   std::uint64_t samples_acked() const { return samples_acked_; }
   std::size_t reconnects() const;
@@ -101,6 +126,21 @@ class Station {
   void update_highlight(const Vec3& tool);
   void request_fill(const Vec3& tool);
   void set_status(std::string text);
+  // The sharp-edge and stitch tools (network thread).
+  void sharp_edge_press(const Vec3& tool);
+  void sharp_edge_hold(const Vec3& tool);
+  void sharp_edge_second();
+  void sharp_edge_release();
+  void apply_tangent_steps();
+  void take_preview(const v1::SharpEdgeResponse& response);
+  //! The guiding surface's tangent plane at the curve point nearest \p tool (the fixture).
+  void constrain_to_guide(const Vec3& tool);
+  void stitch_press(const Vec3& tool);
+  void stitch_hold(const Vec3& tool);
+  void stitch_release();
+  void publish_tool_state();
+  //! The boundary edge (document ids, in loop order) nearest \p tool within reach, if any.
+  bool nearest_boundary_edge(const Vec3& tool, std::uint32_t& a, std::uint32_t& b) const;
 
   std::shared_ptr<net::Channel> channel_;
   net::RepairClient client_;
@@ -113,15 +153,31 @@ class Station {
   std::atomic<std::uint64_t> version_{0};
   std::atomic<std::uint64_t> fills_{0};
   std::atomic<std::uint64_t> samples_sent_{0};
+  std::atomic<std::uint64_t> pushes_done_{0};
+  std::atomic<int> tangent_steps_{0};
   // Network-thread state.
   std::uint64_t published_version_ = ~0ull;
   std::uint32_t previous_buttons_ = 0;
   std::uint64_t sample_seq_ = 0;
   v1::InteractionMessage batch_;
   double highlight_distance_ = 0;
+  double push_step_ = 0;  //!< sharp edge: options_.push_step, or 1/400 of the diagonal
   Vec3 last_tool_ = Vec3::Zero();
   std::atomic<std::uint32_t> own_client_id_{0};  //!< from the interact acks
   std::uint64_t samples_acked_ = 0;
+  enum class SharpPhase { Picking, Previewed, Snapped };
+  SharpPhase sharp_phase_ = SharpPhase::Picking;
+  std::vector<Vec3> picks_;
+  std::vector<Vec3> curve_;
+  std::vector<Vec3> guide_;            //!< the guiding surface, 3 points per triangle
+  double k1_ = 0, k4_ = 0;             //!< tangent lengths of the previewed curve
+  Vec3 guide_normal_ = Vec3::UnitZ();  //!< the guiding surface's extrusion direction
+  Vec3 last_push_ = Vec3::Zero();
+  std::uint64_t pushes_ = 0;
+  bool stitching_ = false;
+  std::uint32_t stitch_a_ = 0, stitch_b_ = 0;
+  std::int64_t stitch_target_ = -1;
+  Vec3 stitch_target_position_ = Vec3::Zero();
   // Shared with the UI thread.
   mutable std::mutex mutex_;
   StationView view_;

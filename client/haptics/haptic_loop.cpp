@@ -189,7 +189,13 @@ void HapticLoop::step(std::int64_t now_ns) {
     return;
   }
   const WorkspaceMap& map = options_.workspace;
-  const Vec3 goal = map.to_model(state.position);
+  const Vec3 tool = map.to_model(state.position);
+  Vec3 goal = tool;
+  // A plane fixture: the proxy's goal is the tool projected onto the plane, so the contact
+  // spring pulls the device back onto it (and the surface still stops the proxy).
+  constraint_.update();
+  const PlaneConstraint& plane = constraint_.front();
+  if (plane.active) goal -= (goal - plane.point).dot(plane.normal) * plane.normal;
   Vec3 force = Vec3::Zero();
   ContactResult contact;
   const ProxyPatch& patch = patches_.front();
@@ -216,7 +222,7 @@ void HapticLoop::step(std::int64_t now_ns) {
   }
   device_.write({force, 0});
   last_force_ = device_.last_output();
-  out.device_position = goal;
+  out.device_position = tool;
   out.proxy = contact.proxy;
   out.velocity = map.scale * state.velocity;
   out.force = last_force_;

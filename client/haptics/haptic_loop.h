@@ -123,6 +123,15 @@ struct HapticLoopOptions {
   int fifo_priority = 80;
 };
 
+//! A virtual fixture: the tool is held to a plane (model frame) by the contact spring, as the
+//! thesis holds the tool to the guiding surface during push-down against hand shake (seed 000
+//! §4.2.3). Set from any thread; the haptic thread takes the newest one each tick.
+struct PlaneConstraint {
+  bool active = false;
+  Vec3 point = Vec3::Zero();
+  Vec3 normal = Vec3::UnitZ();  //!< unit
+};
+
 struct LoopStats {
   std::uint64_t ticks = 0;
   std::uint64_t overruns = 0;  //!< deadlines missed by more than a period
@@ -158,6 +167,9 @@ class HapticLoop {
   //! One tick's work without the timing (tests drive the loop with virtual clocks).
   void step(std::int64_t now_ns);
 
+  //! Holds the tool to a plane (or releases it: active = false). One producer thread.
+  void set_constraint(const PlaneConstraint& constraint) { constraint_.publish(constraint); }
+
  private:
   void run();
 
@@ -172,6 +184,7 @@ class HapticLoop {
   device::TripleBuffer<ToolState> ui_state_;
   device::TripleBuffer<ToolState> updater_state_;
   ToolSampleQueue samples_;
+  device::TripleBuffer<PlaneConstraint> constraint_{PlaneConstraint{}};
   Histogram period_error_;
   Histogram compute_time_;
   // Haptic-thread state.

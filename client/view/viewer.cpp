@@ -226,6 +226,12 @@ void Viewer::handle_keys() {
   if (key(GLFW_KEY_W)) input_.target_offset.z() -= step;
   if (key(GLFW_KEY_S)) input_.target_offset.z() += step;
   input_.button = key(GLFW_KEY_SPACE);
+  input_.button2 = key(GLFW_KEY_B);
+  const bool k_down = key(GLFW_KEY_K), j_down = key(GLFW_KEY_J);
+  if (k_down && !k_was_down_) ++input_.tangent_steps;
+  if (j_down && !j_was_down_) --input_.tangent_steps;
+  k_was_down_ = k_down;
+  j_was_down_ = j_down;
   const bool f_down = key(GLFW_KEY_F);
   if (f_down && !f_was_down_) input_.forces_off = !input_.forces_off;
   f_was_down_ = f_down;
@@ -309,7 +315,18 @@ void Viewer::draw(const Scene& scene) {
     }
     glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(buffer.size() / 6));
   }
-  glDisable(GL_DEPTH_TEST);  // cursors stay visible through the surface
+  glDisable(GL_DEPTH_TEST);  // overlays and cursors stay visible through the surface
+  for (const Polyline& line : scene.polylines) {
+    buffer.clear();
+    for (std::size_t i = 0; i + 1 < line.points.size(); ++i) {
+      push(line.points[i]);
+      push(line.points[i + 1]);
+    }
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(buffer.size() * sizeof(float)),
+                 buffer.data(), GL_STREAM_DRAW);
+    glUniform3f(colour, line.colour.x(), line.colour.y(), line.colour.z());
+    glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(buffer.size() / 6));
+  }
   for (const Cursor& c : scene.cursors) {
     buffer.clear();
     push(c.position);

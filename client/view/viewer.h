@@ -28,6 +28,12 @@ struct Cursor {
   float size_px = 12;
 };
 
+//! A line strip drawn over the mesh (a previewed curve, a stitch being dragged).
+struct Polyline {
+  std::vector<Vec3> points;
+  Eigen::Vector3f colour{1, 1, 1};
+};
+
 //! Everything one frame shows (built by the application from the station's view).
 struct Scene {
   std::shared_ptr<const haptics::SurfaceMesh> surface;
@@ -35,6 +41,7 @@ struct Scene {
   std::vector<std::vector<std::uint32_t>> boundaries;
   int highlighted = -1;
   std::vector<Cursor> cursors;
+  std::vector<Polyline> polylines;
   std::string status;
 };
 
@@ -51,6 +58,8 @@ struct InputState {
   Vec3 target_offset = Vec3::Zero();  //!< keyboard-driven tool offset, device metres
   bool button = false;                //!< space bar
   bool forces_off = false;            //!< toggled by F: the operator turned forces off
+  bool button2 = false;               //!< B: the second button
+  int tangent_steps = 0;              //!< K / J presses: +1 / -1 (sharp-edge tangent lengths)
   bool quit = false;
 };
 
@@ -91,6 +100,8 @@ class Viewer {
   double last_x_ = 0, last_y_ = 0;
   bool dragging_ = false;
   bool f_was_down_ = false;
+  bool k_was_down_ = false;
+  bool j_was_down_ = false;
   InputState input_;
   std::vector<std::uint8_t> last_frame_;
   int frame_width_ = 0, frame_height_ = 0;

@@ -6,6 +6,7 @@
 
 #include "client/app/station.h"
 
+#include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <fstream>
@@ -17,7 +18,10 @@
 
 #include "device/simulated_device.h"
 #include "device/trajectory.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_io.h"
 #include "tests/integration/server_process.h"
+#include "tests/support/mesh_factory.h"
 
 namespace touchmend::testing {
 namespace {
@@ -220,6 +224,228 @@ int run(const std::string& command, std::string& output) {
   output = read_file(file);
   std::filesystem::remove(file);
   return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+//! A trajectory in the model frame: straight moves between waypoints at 1 kHz, each with the
+//! buttons held during the move.
+struct Waypoint {
+  Vec3 position;
+  double seconds;  //!< time to get there from the previous waypoint
+  std::uint32_t buttons;
+};
+
+device::Trajectory path(const haptics::WorkspaceMap& map, const Eigen::AlignedBox3d& workspace,
+                        const std::vector<Waypoint>& waypoints) {
+  device::Trajectory t;
+  t.workspace = workspace;
+  double time = 0;
+  Vec3 from = waypoints.front().position;
+  for (const Waypoint& w : waypoints) {
+    const int steps = std::max(1, static_cast<int>(w.seconds * 1000));
+    for (int i = 1; i <= steps; ++i) {
+      const Vec3 p = from + (static_cast<double>(i) / steps) * (w.position - from);
+      t.samples.push_back({time, map.to_device(p), w.buttons});
+      time += 0.001;
+    }
+    from = w.position;
+  }
+  return t;
+}
+
+//! Comes from outside along \p away to just under the surface at \p p, presses button 1
+//! there, releases and leaves.
+void press_at(std::vector<Waypoint>& w, const Vec3& p, const Vec3& away) {
+  w.push_back({p + 1.0 * away, 0.15, 0});
+  w.push_back({p - 0.02 * away, 0.25, 0});
+  w.push_back({p - 0.02 * away, 0.1, 1});
+  w.push_back({p - 0.02 * away, 0.1, 0});
+  w.push_back({p + 1.0 * away, 0.15, 0});
+}
+
+//! Runs the station on a replayed trajectory until it ends (plus a moment).
+void replay(app::Station& station, const device::Trajectory& trajectory,
+            const Eigen::AlignedBox3d& model, const Eigen::AlignedBox3d& workspace) {
+  device::ReplayDevice device(trajectory, "script");
+  device::SafetyFilter safe(device);
+  ASSERT_TRUE(safe.open().ok);
+  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
+  runtime.start();
+  const double seconds = trajectory.samples.back().t + 1.0;
+  std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
+  runtime.stop();
+  safe.close();
+}
+
+//! A session holding the cube [0, 8]³ with a hole across its edge x = z = 8 (around y = 4),
+//! filled with \p shape.
+void filled_cube_session(ServerProcess& server, v1::PatchShape shape, v1::SessionInfo& info,
+                         v1::EditResponse& filled) {
+  const geometry::MeshSoup soup = cube_with_hole(8, geometry::Vec3(8, 4, 8), 2.2);
+  net::RepairClient setup(server.connect());
+  ASSERT_TRUE(setup.create_session("cube edge", info).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(
+      setup.upload_mesh(info.session_id(), to_off(soup), v1::OFF, "cube.off", loaded).is_ok());
+  v1::FillHolesRequest fill;
+  fill.set_session_id(info.session_id());
+  fill.mutable_selection()->set_all(true);
+  fill.mutable_options()->set_shape(shape);
+  ASSERT_TRUE(setup.fill_holes(fill, filled).is_ok());
+}
+
+TEST(Station, ReplayedStitchDragCreatesTheTriangle) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  // Two 4x4 plates in z = 0 with a 0.5 gap between x = 4 and x = 4.5.
+  const geometry::MeshSoup soup = two_plates(4, 0.5);
+  app::StationOptions options;
+  options.mesh_bytes = to_off(soup);
+  options.tool = app::StationTool::Stitch;
+  app::Station station(server.connect(), options);
+  ASSERT_TRUE(station.start().is_ok());
+  EXPECT_EQ(station.view().tool, "stitch");
+  const std::uint64_t start_version = station.version();
+  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  // Above the plates (no contact needed to pick): press near the left plate's edge x = 4,
+  // 0 < y < 1, drag across the gap to the right plate's corner (4.5, 0), release.
+  replay(station,
+         path(map, workspace,
+              {{Vec3(3.5, 0.5, 0.3), 0.2, 0},
+               {Vec3(3.92, 0.5, 0.05), 0.3, 0},
+               {Vec3(3.92, 0.5, 0.05), 0.2, 1},
+               {Vec3(4.55, 0.05, 0.05), 0.5, 1},
+               {Vec3(4.55, 0.05, 0.05), 0.2, 0},
+               {Vec3(4.55, 0.05, 0.4), 0.2, 0}}),
+         model, workspace);
+  const app::StationView after = station.view();
+  // The edge (4, 0)-(4, 1) is vertices 4 and 9, in the hole loop's order; (4.5, 0) is 25.
+  EXPECT_NE(after.status.find("stitch: triangle 9-4-25"), std::string::npos) << after.status;
+  EXPECT_EQ(station.version(), start_version + 1) << after.status;
+  net::RepairClient check(server.connect());
+  rpc::MeshDocument server_document;
+  ASSERT_TRUE(check.download_document(station.session_id(), server_document).is_ok());
+  EXPECT_TRUE(station.document() == server_document);
+  EXPECT_EQ(server_document.alive_faces(), 65u);
+}
+
+TEST(Station, ReplayedSharpEdgePicksPushesAndSmoothsACubeEdge) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  // The cube [0, 8]³ with a hole across its edge x = z = 8, filled rounded (faired) first.
+  v1::SessionInfo info;
+  v1::EditResponse filled;
+  ASSERT_NO_FATAL_FAILURE(filled_cube_session(server, v1::PATCH_SHAPE_FAIR, info, filled));
+
+  app::StationOptions options;
+  options.session_id = info.session_id();
+  options.tool = app::StationTool::SharpEdge;
+  options.push_step = 0.1;
+  app::Station station(server.connect(), options);
+  ASSERT_TRUE(station.start().is_ok());
+  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  const Vec3 diagonal = Vec3(1, 0, 1).normalized();
+  std::vector<Waypoint> w;
+  w.push_back({Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0});
+  for (const double y : {0.5, 1.6, 6.4, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);  // P1..P4
+  press_at(w, Vec3(8, 0.5, 8), diagonal);                                            // confirm
+  // Sweeps: pressed into the patch under the edge, back and forth along it (enough of them for
+  // a vertex to reach the edge even when a loaded machine delays the pushes).
+  w.push_back({Vec3(8, 2.6, 8) + 1.0 * diagonal, 0.2, 0});
+  for (int sweep = 0; sweep < 10; ++sweep) {
+    w.push_back({Vec3(8, sweep % 2 ? 5.4 : 2.6, 8) - 0.4 * diagonal, 0.3, 1});
+    w.push_back({Vec3(8, sweep % 2 ? 2.6 : 5.4, 8) - 0.4 * diagonal, 1.0, 1});
+  }
+  w.push_back({Vec3(8, 4, 8) + 1.0 * diagonal, 0.2, 0});
+  w.push_back({Vec3(8, 4, 8) + 1.0 * diagonal, 0.1, 2});  // button 2: smooth
+  w.push_back({Vec3(8, 4, 8) + 1.5 * diagonal, 0.2, 0});
+  replay(station, path(map, workspace, w), model, workspace);
+
+  const app::StationView after = station.view();
+  EXPECT_GT(station.pushes(), 0u) << after.status;
+  EXPECT_NE(after.status.find("smoothed after"), std::string::npos) << after.status;
+  EXPECT_TRUE(after.picks.empty());  // the tool finished
+  net::RepairClient check(server.connect());
+  rpc::MeshDocument doc;
+  ASSERT_TRUE(check.download_document(station.session_id(), doc).is_ok());
+  EXPECT_TRUE(station.document() == doc);
+  // The pushes brought vertices of the rounded patch up to the edge (the picks are proxy
+  // positions, so the curve is within the proxy's offset of the true edge); before, the
+  // faired patch's vertices under the edge were far below it.
+  std::size_t on_edge = 0;
+  for (std::size_t v = 0; v < doc.positions.size(); ++v) {
+    const auto& p = doc.positions[v];
+    if (doc.vertex_alive[v] && p[1] > 2.5 && p[1] < 5.5 && std::abs(p[0] - 8) < 0.02 &&
+        std::abs(p[2] - 8) < 0.02)
+      ++on_edge;
+  }
+  EXPECT_GT(on_edge, 0u) << station.pushes() << " pushes";
+  // The tool is done on the server too.
+  v1::SharpEdgeRequest push;
+  push.set_session_id(station.session_id());
+  push.mutable_push()->set_step(0.1);
+  v1::SharpEdgeResponse response;
+  EXPECT_EQ(check.sharp_edge(push, response).code, rpc::StatusCode::FailedPrecondition);
+}
+
+TEST(Station, SharpEdgeTangentsAdjustLiveWithoutAnEdit) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  v1::SessionInfo info;
+  v1::EditResponse filled;
+  ASSERT_NO_FATAL_FAILURE(filled_cube_session(server, v1::PATCH_SHAPE_AUTO, info, filled));
+  app::StationOptions options;
+  options.session_id = info.session_id();
+  options.tool = app::StationTool::SharpEdge;
+  app::Station station(server.connect(), options);
+  ASSERT_TRUE(station.start().is_ok());
+  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  const Vec3 diagonal = Vec3(1, 0, 1).normalized();
+  std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
+  // P1 off the edge's line (a bend), so longer tangents move the curve's middle.
+  for (const Vec3& p : {Vec3(8, 0.5, 7.0), Vec3(8, 1.6, 8), Vec3(8, 6.4, 8), Vec3(8, 7.5, 8)})
+    press_at(w, p, diagonal);
+  w.push_back({Vec3(8, 4, 8) + 2.0 * diagonal, 6.0, 0});  // then wait while k is adjusted
+  device::ReplayDevice device(path(map, workspace, w), "picks");
+  device::SafetyFilter safe(device);
+  ASSERT_TRUE(safe.open().ok);
+  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
+  runtime.start();
+  const auto wait_for = [&](const auto& done) {
+    const auto deadline = std::chrono::steady_clock::now() + 10s;
+    while (!done() && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(10ms);
+    return done();
+  };
+  ASSERT_TRUE(wait_for([&] { return !station.view().curve.empty(); })) << station.view().status;
+  const app::StationView first = station.view();
+  EXPECT_EQ(first.picks.size(), 4u);
+  EXPECT_FALSE(first.guide.empty());
+  station.adjust_tangents(5);
+  ASSERT_TRUE(wait_for([&] { return station.view().k1 > first.k1 * 1.5; }))
+      << station.view().status;
+  const app::StationView longer = station.view();
+  EXPECT_NEAR(longer.k1, first.k1 * std::pow(1.1, 5), 1e-9 * first.k1);
+  EXPECT_NEAR(longer.k4, first.k4 * std::pow(1.1, 5), 1e-9 * first.k4);
+  const Vec3 a = first.curve[first.curve.size() / 2], b = longer.curve[longer.curve.size() / 2];
+  EXPECT_GT((a - b).norm(), 1e-3);  // the preview changed
+  station.adjust_tangents(-5);
+  ASSERT_TRUE(wait_for([&] { return std::abs(station.view().k1 - first.k1) < 1e-9 * first.k1; }));
+  runtime.stop();
+  safe.close();
+  // Only previews: the session's version is the fill's.
+  EXPECT_EQ(station.version(), filled.version());
 }
 
 TEST(ClientBinary, DevicesAndUsageErrors) {

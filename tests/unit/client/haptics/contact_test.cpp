@@ -340,6 +340,43 @@ TEST(HapticLoop, PushesBackOutOfAPlateAndEasesInARemoteEdit) {
   EXPECT_LT(largest_step, 0.8 * 1.6 / 5);
 }
 
+TEST(HapticLoop, PlaneConstraintHoldsTheToolToThePlane) {
+  LoopRig rig(true);
+  ASSERT_TRUE(rig.safe.open().ok);
+  rig.publish_plate(0.0, 1);
+  rig.safe.arm();
+  std::int64_t now = 0;
+  const auto run = [&](int ticks) {
+    for (int i = 0; i < ticks; ++i) {
+      rig.sim.advance(1'000'000);
+      now += 1'000'000;
+      rig.loop.step(now);
+    }
+    auto& ui = rig.loop.ui_state();
+    ui.update();
+    return ui.front();
+  };
+  run(200);  // armed in free space first, as at the station (the fixture comes with a sweep)
+  // The hand pushes into the plate 1 cm to the side of the plane x = 0.
+  PlaneConstraint plane;
+  plane.active = true;
+  plane.point = Vec3(0, 0, 0);
+  plane.normal = Vec3(1, 0, 0);
+  rig.loop.set_constraint(plane);
+  rig.sim.set_target(Vec3(0.01, 0, -0.005), 0);
+  ToolState s = run(3000);
+  EXPECT_TRUE(s.in_contact);
+  EXPECT_NEAR(s.proxy.x(), 0.0, 1e-9);  // the proxy stays on the plane
+  EXPECT_LT(s.force.x(), -0.5);         // and the device is pulled back toward it
+  EXPECT_GT(s.force.z(), 0.5);          // while the plate still pushes up
+  // Released: the proxy follows the hand off the plane again.
+  plane.active = false;
+  rig.loop.set_constraint(plane);
+  s = run(3000);
+  EXPECT_GT(s.proxy.x(), 0.005);
+  EXPECT_LT(std::abs(s.force.x()), 0.05);
+}
+
 TEST(HapticLoop, RealThreadRunsWithoutAllocatingAndKeepsItsRate) {
   LoopRig rig(false);
   ASSERT_TRUE(rig.safe.open().ok);
