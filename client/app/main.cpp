@@ -79,12 +79,14 @@ view::Scene make_scene(const app::StationView& v, const haptics::ToolState& tool
          14});
   }
   for (const auto& c : v.cursors) scene.cursors.push_back({c.position, {1.0f, 0.3f, 1.0f}, 14});
-  // Sharp-edge picks, numbered by colour (P1 red, P2 orange, P3 green, P4 blue), the previewed
-  // curve in cyan; the stitch being dragged in white, its snap candidate in yellow.
+  // Sharp-edge picks, numbered and coloured by number (P1 red, P2 orange, P3 green, P4 blue), the
+  // previewed curve in cyan; the stitch being dragged in white, its snap candidate in yellow.
   const Eigen::Vector3f pick_colours[4] = {
       {1.0f, 0.2f, 0.2f}, {1.0f, 0.6f, 0.1f}, {0.2f, 0.9f, 0.3f}, {0.3f, 0.5f, 1.0f}};
-  for (std::size_t i = 0; i < v.picks.size() && i < 4; ++i)
+  for (std::size_t i = 0; i < v.picks.size() && i < 4; ++i) {
     scene.cursors.push_back({v.picks[i], pick_colours[i], 16});
+    scene.labels.push_back({v.picks[i], std::to_string(i + 1), pick_colours[i], 22});
+  }
   if (v.curve.size() >= 2) scene.polylines.push_back({v.curve, {0.2f, 1.0f, 1.0f}});
   // The guiding surface being previewed: its bottom and top lines and rungs, dimmer.
   for (std::size_t i = 0; i + 2 < v.guide.size(); i += 3) {

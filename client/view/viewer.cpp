@@ -6,6 +6,7 @@
 #include <GLFW/glfw3.h>
 #include <GL/glext.h>
 // clang-format on
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -88,7 +89,40 @@ Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& centr
   return m;
 }
 
+// Seven-segment digits: segment ends on a 0..1 × 0..2 cell (x right, y up), segments a–g in
+// the usual order (a top, b upper right, c lower right, d bottom, e lower left, f upper left,
+// g middle). Lines are all the viewer draws, so labels need no texture or font file.
+constexpr std::array<std::array<float, 4>, 7> kSegments = {{
+    {0, 2, 1, 2},  // a
+    {1, 2, 1, 1},  // b
+    {1, 1, 1, 0},  // c
+    {0, 0, 1, 0},  // d
+    {0, 1, 0, 0},  // e
+    {0, 2, 0, 1},  // f
+    {0, 1, 1, 1},  // g
+}};
+// Bit i set = segment i lit, for 0..9.
+constexpr std::array<std::uint8_t, 10> kDigitSegments = {0x3F, 0x06, 0x5B, 0x4F, 0x66,
+                                                         0x6D, 0x7D, 0x07, 0x7F, 0x6F};
+
 }  // namespace
+
+std::vector<std::array<float, 2>> digit_strokes(const std::string& text) {
+  std::vector<std::array<float, 2>> ends;
+  float x = 0;
+  for (const char ch : text) {
+    if (ch < '0' || ch > '9') continue;
+    const std::uint8_t lit = kDigitSegments[static_cast<std::size_t>(ch - '0')];
+    for (std::size_t s = 0; s < kSegments.size(); ++s) {
+      if (!(lit & (1u << s))) continue;
+      const auto& seg = kSegments[s];
+      ends.push_back({x + seg[0], seg[1]});
+      ends.push_back({x + seg[2], seg[3]});
+    }
+    x += 1.6f;  // advance: one cell and a gap
+  }
+  return ends;
+}
 
 Viewer::Viewer(ViewerOptions options) : options_(std::move(options)) {}
 
@@ -335,6 +369,30 @@ void Viewer::draw(const Scene& scene) {
     glUniform3f(colour, c.colour.x(), c.colour.y(), c.colour.z());
     glUniform1f(point_size, c.size_px);
     glDrawArrays(GL_POINTS, 0, 1);
+  }
+  // Labels: the anchor projected to normalised device coordinates, the digits drawn there in
+  // pixels (up and to the right of the point, clear of its cursor) with an identity transform.
+  if (!scene.labels.empty()) {
+    const Eigen::Matrix4f identity = Eigen::Matrix4f::Identity();
+    glUniformMatrix4fv(glGetUniformLocation(program_, "mvp"), 1, GL_FALSE, identity.data());
+    const float px_x = 2.0f / float(std::max(width, 1)), px_y = 2.0f / float(std::max(height, 1));
+    for (const Label& label : scene.labels) {
+      const Vec3 q = label.anchor - centre;
+      const Eigen::Vector4f clip =
+          mvp * Eigen::Vector4f(float(q.x()), float(q.y()), float(q.z()), 1);
+      if (!(clip.w() > 0)) continue;           // behind the eye
+      const float unit = label.height_px / 2;  // a cell is two units high
+      const float x0 = clip.x() / clip.w() + 10 * px_x, y0 = clip.y() / clip.w() + 10 * px_y;
+      buffer.clear();
+      for (const auto& end : digit_strokes(label.text))
+        buffer.insert(buffer.end(),
+                      {x0 + end[0] * unit * px_x, y0 + end[1] * unit * px_y, 0.f, 0.f, 0.f, 1.f});
+      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(buffer.size() * sizeof(float)),
+                   buffer.data(), GL_STREAM_DRAW);
+      glUniform3f(colour, label.colour.x(), label.colour.y(), label.colour.z());
+      glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(buffer.size() / 6));
+    }
+    glUniformMatrix4fv(glGetUniformLocation(program_, "mvp"), 1, GL_FALSE, mvp.data());
   }
   glEnable(GL_DEPTH_TEST);
   if (options_.keep_frames) {

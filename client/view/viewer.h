@@ -3,10 +3,12 @@
 //! \file viewer.h
 //! \brief The station's GLFW window with an OpenGL 3.3 core context: the shaded mesh, hole
 //! boundaries in colour with the hole under the tool highlighted, the tool (device) and proxy
-//! cursors, other operators' cursors, an orbit/zoom camera, and a status line (in the title
-//! bar). Screenshots are PNG, written atomically. Under Xvfb (Mesa llvmpipe) the same code
-//! draws without a display, which is how the tests check the pixels.
+//! cursors, other operators' cursors, overlay polylines and digit labels, an orbit/zoom
+//! camera, and a status line (in the title bar). Screenshots are PNG, written atomically. Under
+//! Xvfb (Mesa llvmpipe) the same code draws without a display, which is how the tests check the
+//! pixels.
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -34,6 +36,15 @@ struct Polyline {
   Eigen::Vector3f colour{1, 1, 1};
 };
 
+//! A short run of digits drawn in screen space beside a model point (the sharp-edge picks'
+//! numbers); characters other than 0-9 are skipped.
+struct Label {
+  Vec3 anchor = Vec3::Zero();
+  std::string text;
+  Eigen::Vector3f colour{1, 1, 1};
+  float height_px = 16;
+};
+
 //! Everything one frame shows (built by the application from the station's view).
 struct Scene {
   std::shared_ptr<const haptics::SurfaceMesh> surface;
@@ -42,6 +53,7 @@ struct Scene {
   int highlighted = -1;
   std::vector<Cursor> cursors;
   std::vector<Polyline> polylines;
+  std::vector<Label> labels;
   std::string status;
 };
 
@@ -62,6 +74,10 @@ struct InputState {
   int tangent_steps = 0;              //!< K / J presses: +1 / -1 (sharp-edge tangent lengths)
   bool quit = false;
 };
+
+//! The line segments (pairs of ends, in units of half a digit's height, x right, y up from the
+//! lower left) that draw \p text's digits.
+std::vector<std::array<float, 2>> digit_strokes(const std::string& text);
 
 class Viewer {
  public:

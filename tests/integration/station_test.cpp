@@ -6,6 +6,7 @@
 
 #include "client/app/station.h"
 
+#include <array>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
@@ -534,6 +535,90 @@ TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
   EXPECT_GT(mesh_pixels, total / 50) << "the mesh is not drawn";
   EXPECT_GT(highlight_pixels, 20u) << "no highlighted hole";
   EXPECT_LT(mesh_pixels + highlight_pixels, total) << "nothing but mesh: no background";
+}
+
+//! Reads a PNG as RGB rows (top row first).
+std::vector<std::uint8_t> read_png(const std::filesystem::path& file, int& width, int& height) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&image, file.string().c_str())) return {};
+  image.format = PNG_FORMAT_RGB;
+  std::vector<std::uint8_t> pixels(PNG_IMAGE_SIZE(image));
+  if (!png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr)) return {};
+  width = static_cast<int>(image.width);
+  height = static_cast<int>(image.height);
+  return pixels;
+}
+
+TEST(ClientBinary, SharpEdgePicksAreDrawnNumberedWithThePreviewedCurveUnderXvfb) {
+  ASSERT_EQ(std::system("command -v xvfb-run > /dev/null 2>&1"), 0) << "xvfb-run is not installed";
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  v1::SessionInfo info;
+  v1::EditResponse filled;
+  ASSERT_NO_FATAL_FAILURE(filled_cube_session(server, v1::PATCH_SHAPE_FAIR, info, filled));
+  net::RepairClient client(server.connect());
+  rpc::MeshDocument document;
+  ASSERT_TRUE(client.download_document(info.session_id(), document).is_ok());
+  const Eigen::AlignedBox3d model = app::bounds_of(document);
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  const Vec3 diagonal = Vec3(1, 0, 1).normalized();
+  // Four picks along the edge x = z = 8, then the tool parks far outside (out of the picture's
+  // colours' way) while the preview is drawn.
+  std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
+  for (const double y : {0.5, 2.5, 5.5, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);
+  w.push_back({Vec3(8, 4, 8) + 6.0 * diagonal, 0.3, 0});
+  const auto traj = dir.path() / "picks.traj";
+  ASSERT_TRUE(device::write_trajectory(traj, path(map, workspace, w)).ok);
+  const auto png = dir.path() / "picks.png";
+  std::string out;
+  // Leak checking off for this run only: see ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb.
+  const int rc =
+      run("ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 xvfb-run -a -s '-screen 0 1280x1024x24' " +
+              std::string(TOUCHMEND_CLIENT_PATH) +
+              " --server 127.0.0.1:" + std::to_string(server.port()) + " --session " +
+              info.session_id() + " --tool sharp-edge --device replay:" + traj.string() +
+              " --headless --duration 5 --screenshot " + png.string(),
+          out);
+  ASSERT_EQ(rc, 0) << out;
+  int width = 0, height = 0;
+  const std::vector<std::uint8_t> pixels = read_png(png, width, height);
+  ASSERT_FALSE(pixels.empty()) << out;
+  // Each pick's colour (P1 red, P2 orange, P3 green, P4 blue): its pixels are the 16 px cursor
+  // and, up and to the right of it, the digit; so their bounding box is taller than the cursor.
+  struct Box {
+    int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1;
+    std::size_t count = 0;
+  };
+  std::array<Box, 4> picks;
+  std::size_t curve = 0;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const std::size_t i = 3 * (std::size_t(y) * std::size_t(width) + std::size_t(x));
+      const int r = pixels[i], g = pixels[i + 1], b = pixels[i + 2];
+      int pick = -1;
+      if (r > 230 && g > 35 && g < 70 && b > 35 && b < 70) pick = 0;             // (1, 0.2, 0.2)
+      if (r > 230 && g > 140 && g < 170 && b > 10 && b < 40) pick = 1;           // (1, 0.6, 0.1)
+      if (r > 35 && r < 70 && g > 215 && g < 240 && b > 60 && b < 90) pick = 2;  // (0.2, 0.9, 0.3)
+      if (r > 65 && r < 90 && g > 115 && g < 140 && b > 240) pick = 3;           // (0.3, 0.5, 1)
+      if (r > 35 && r < 70 && g > 240 && b > 240) ++curve;                       // (0.2, 1, 1)
+      if (pick < 0) continue;
+      Box& box = picks[static_cast<std::size_t>(pick)];
+      box.x0 = std::min(box.x0, x);
+      box.x1 = std::max(box.x1, x);
+      box.y0 = std::min(box.y0, y);
+      box.y1 = std::max(box.y1, y);
+      ++box.count;
+    }
+  for (std::size_t p = 0; p < picks.size(); ++p) {
+    EXPECT_GT(picks[p].count, 100u) << "pick " << p + 1 << " is not drawn\n" << out;
+    EXPECT_GT(picks[p].y1 - picks[p].y0, 24) << "pick " << p + 1 << " has no number\n" << out;
+    EXPECT_LT(picks[p].y1 - picks[p].y0, 60) << "pick " << p + 1 << ": stray pixels";
+  }
+  EXPECT_GT(curve, 30u) << "the previewed curve is not drawn\n" << out;
 }
 
 }  // namespace
