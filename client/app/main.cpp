@@ -97,6 +97,12 @@ view::Scene make_scene(const app::StationView& v, const haptics::ToolState& tool
       scene.polylines.push_back({{v.guide[i + 1], v.guide[i + 2], v.guide[i]}, {0.1f, 0.5f, 0.5f}});
     }
   }
+  // Another operator's sharp-edge preview, in the remote cursors' magenta.
+  if (v.remote_curve.size() >= 2) scene.polylines.push_back({v.remote_curve, {1.0f, 0.3f, 1.0f}});
+  for (std::size_t i = 0; i + 2 < v.remote_guide.size(); i += 3)
+    scene.polylines.push_back(
+        {{v.remote_guide[i], v.remote_guide[i + 1], v.remote_guide[i + 2], v.remote_guide[i]},
+         {0.5f, 0.15f, 0.5f}});
   if (v.stitch.size() >= 2) {
     scene.polylines.push_back({{v.stitch[0], v.stitch[1]}, {1.0f, 1.0f, 1.0f}});
     if (v.stitch.size() == 3) {

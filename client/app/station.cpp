@@ -121,6 +121,18 @@ Status Station::start() {
     std::lock_guard lock(mutex_);
     cursors_[p.client_id()] = c;
   };
+  replica_->on_tool_preview = [this](const v1::ToolPreview& t) {
+    const auto points = [](const auto& wire_points) {
+      std::vector<Vec3> out;
+      out.reserve(static_cast<std::size_t>(wire_points.size()));
+      for (const auto& p : wire_points) out.emplace_back(p.x(), p.y(), p.z());
+      return out;
+    };
+    std::lock_guard lock(mutex_);
+    view_.remote_curve = t.active() ? points(t.curve()) : std::vector<Vec3>{};
+    view_.remote_guide = t.active() ? points(t.guide()) : std::vector<Vec3>{};
+    view_.remote_tool_principal = t.active() ? t.principal() : std::string{};
+  };
   if (Status s = replica_->start(); !s.is_ok()) return s;
   interact_ = client_.interact();
   batch_.set_session_id(options_.session_id);
@@ -643,6 +655,11 @@ StationView Station::view() const {
   std::lock_guard lock(mutex_);
   StationView v = view_;
   v.fills = fills_.load();
+  if (!v.curve.empty()) {  // the session's tool is this station's own: drawn from local state
+    v.remote_curve.clear();
+    v.remote_guide.clear();
+    v.remote_tool_principal.clear();
+  }
   return v;
 }
 

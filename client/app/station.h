@@ -65,6 +65,10 @@ struct StationView {
   std::vector<Vec3> guide;   //!< sharp edge: the guiding surface (3 points per triangle)
   double k1 = 0, k4 = 0;     //!< sharp edge: the previewed tangent lengths
   std::vector<Vec3> stitch;  //!< stitch: the dragged edge's two ends, then the snap candidate
+  //! The session's sharp-edge preview when another client drives the tool (what its operator
+  //! sees: the curve and, before confirmation, the guiding surface); empty otherwise.
+  std::vector<Vec3> remote_curve, remote_guide;
+  std::string remote_tool_principal;
 };
 
 //! What the button does at the station (seed 000 ch. 4's interactions).

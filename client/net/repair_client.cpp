@@ -335,6 +335,9 @@ Status SessionReplica::poll(std::chrono::milliseconds timeout) {
       case v1::SessionEvent::kPresence:
         if (on_presence) on_presence(event.presence());
         break;
+      case v1::SessionEvent::kToolPreview:
+        if (on_tool_preview) on_tool_preview(event.tool_preview());
+        break;
       case v1::SessionEvent::kClosed:
         return {StatusCode::NotFound, "the session was closed"};
       default:

@@ -130,6 +130,8 @@ class SessionReplica {
   //! Called after each delta is applied (e.g. to update a view).
   std::function<void(const v1::MeshDelta&)> on_delta;
   std::function<void(const v1::Presence&)> on_presence;
+  //! The session's sharp-edge tool preview (any client's, this one's included).
+  std::function<void(const v1::ToolPreview&)> on_tool_preview;
 
  private:
   Status resync();

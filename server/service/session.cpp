@@ -530,12 +530,14 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
       fill_preview(tool, response);
       sharp_tool_.reset();  // the edit is finished
       response.set_summary("smoothed; the sharp-edge tool is done");
+      publish_tool_preview(principal, nullptr);
       return {};
     }
     case v1::SharpEdgeRequest::kCancel:
       sharp_tool_.reset();
       response.set_version(document_.version);
       response.set_summary("sharp-edge tool cancelled");
+      publish_tool_preview(principal, nullptr);
       return {};
     default:
       return {StatusCode::InvalidArgument,
@@ -545,7 +547,27 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
   response.set_k1(k1);
   response.set_k4(k4);
   fill_preview(*sharp_tool_, response);
+  // Pushes move single vertices (their deltas say it all); the curve changes on the others.
+  if (request.action_case() != v1::SharpEdgeRequest::kPush)
+    publish_tool_preview(principal, &response);
   return {};
+}
+
+void Session::publish_tool_preview(const std::string& principal,
+                                   const v1::SharpEdgeResponse* preview) {
+  v1::SessionEvent event;
+  v1::ToolPreview& tool = *event.mutable_tool_preview();
+  tool.set_principal(principal);
+  tool.set_active(preview != nullptr);
+  if (preview) {
+    const bool snapped = sharp_tool_ && sharp_tool_->snapped;
+    *tool.mutable_curve() = preview->curve();
+    if (!snapped) *tool.mutable_guide() = preview->guide();  // drawn until the snap
+    tool.set_k1(preview->k1());
+    tool.set_k4(preview->k4());
+    tool.set_snapped(snapped);
+  }
+  broadcast(event);
 }
 
 bool Session::answered_before(const std::string& request_id, v1::EditResponse& response) {

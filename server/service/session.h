@@ -103,6 +103,9 @@ class Session : public std::enable_shared_from_this<Session> {
                                 v1::EditResponse& response);
   SnapshotRow make_snapshot() const;
   void refresh_summary();
+  //! Tells every subscriber what the sharp-edge tool shows now (\p preview's curve, guide and
+  //! k), or that it ended (nullptr).
+  void publish_tool_preview(const std::string& principal, const v1::SharpEdgeResponse* preview);
 
   SessionRow row_;
   Store& store_;

@@ -1093,6 +1093,14 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   ASSERT_TRUE(
       a.upload_mesh(info.session_id(), cube_edge_hole_off(), v1::OFF, "cube.off", loaded).is_ok());
   net::SessionReplica replica(b, info.session_id());
+  std::vector<v1::ToolPreview> previews;  // what the second client is told of the tool
+  replica.on_tool_preview = [&](const v1::ToolPreview& t) { previews.push_back(t); };
+  const auto wait_for_previews = [&](std::size_t count) {
+    const auto deadline = std::chrono::steady_clock::now() + 10s;
+    while (previews.size() < count && std::chrono::steady_clock::now() < deadline)
+      if (!replica.poll(50ms).is_ok()) break;
+    return previews.size() >= count;
+  };
   ASSERT_TRUE(replica.start().is_ok());
   // A faired fill rounds the edge off.
   v1::FillHolesRequest fill;
@@ -1124,11 +1132,22 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
     EXPECT_NEAR(q.z(), 8, 1e-9);
   }
   EXPECT_EQ(response.guide_size() % 3, 0);
+  // The other client sees the same preview.
+  ASSERT_TRUE(wait_for_previews(1));
+  EXPECT_TRUE(previews[0].active());
+  EXPECT_FALSE(previews[0].snapped());
+  EXPECT_EQ(previews[0].curve_size(), response.curve_size());
+  EXPECT_EQ(previews[0].guide_size(), response.guide_size());
+  EXPECT_FALSE(previews[0].principal().empty());
   // Live k: a longer start tangent bends the curve away from the edge (preview only).
   request.mutable_adjust()->set_k1(12);
   request.mutable_adjust()->set_k4(0);
   ASSERT_TRUE(a.sharp_edge(request, response).is_ok());
   EXPECT_DOUBLE_EQ(response.k1(), 12);
+  ASSERT_TRUE(wait_for_previews(2));
+  EXPECT_DOUBLE_EQ(previews[1].k1(), 12);
+  ASSERT_EQ(previews[1].curve_size(), response.curve_size());
+  EXPECT_DOUBLE_EQ(previews[1].curve(1).x(), response.curve(1).x());
   request.mutable_adjust()->set_k1(0);  // back to the straight edge
   ASSERT_TRUE(a.sharp_edge(request, response).is_ok());
   EXPECT_EQ(response.version(), filled.version());
@@ -1165,9 +1184,16 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
     ++pushes;
   }
   EXPECT_GT(pushes, 0u);
+  // Begin, two adjusts and the confirm were previewed to the other client; pushes were not.
+  ASSERT_TRUE(wait_for_previews(4));
+  EXPECT_TRUE(previews[3].snapped());
+  EXPECT_EQ(previews[3].guide_size(), 0);  // the guiding surface is only shown before the snap
   request.set_smooth(true);
   ASSERT_TRUE(a.sharp_edge(request, response).is_ok());
   ASSERT_TRUE(replica.wait_for_version(response.version(), 10s).is_ok());
+  ASSERT_TRUE(wait_for_previews(5));  // the tool ended
+  EXPECT_FALSE(previews[4].active());
+  EXPECT_EQ(previews.size(), 5u);
   rpc::MeshDocument server_doc;
   ASSERT_TRUE(a.download_document(info.session_id(), server_doc).is_ok());
   EXPECT_EQ(replica.document(), server_doc);

@@ -449,6 +449,57 @@ TEST(Station, SharpEdgeTangentsAdjustLiveWithoutAnEdit) {
   EXPECT_EQ(station.version(), filled.version());
 }
 
+TEST(Station, ShowsAnotherClientsSharpEdgePreviewUntilItEnds) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  v1::SessionInfo info;
+  v1::EditResponse filled;
+  ASSERT_NO_FATAL_FAILURE(filled_cube_session(server, v1::PATCH_SHAPE_FAIR, info, filled));
+  app::StationOptions options;
+  options.session_id = info.session_id();
+  app::Station station(server.connect(), options);
+  ASSERT_TRUE(station.start().is_ok());
+  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  // The station's tool rests away from the cube while another client drives the tool.
+  device::ReplayDevice device(path(map, workspace, {{Vec3(12, 4, 12), 8.0, 0}}), "rest");
+  device::SafetyFilter safe(device);
+  ASSERT_TRUE(safe.open().ok);
+  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
+  runtime.start();
+  const auto wait_for = [&](const auto& done) {
+    const auto deadline = std::chrono::steady_clock::now() + 10s;
+    while (!done() && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(10ms);
+    return done();
+  };
+  net::RepairClient other(server.connect());
+  v1::SharpEdgeRequest request;
+  request.set_session_id(info.session_id());
+  for (const double y : {0.5, 2.0, 6.0, 7.5}) {
+    auto* p = request.mutable_begin()->add_points();
+    p->set_x(8);
+    p->set_y(y);
+    p->set_z(8);
+  }
+  v1::SharpEdgeResponse response;
+  ASSERT_TRUE(other.sharp_edge(request, response).is_ok());
+  EXPECT_TRUE(wait_for([&] { return !station.view().remote_curve.empty(); }));
+  const app::StationView seen = station.view();
+  EXPECT_EQ(seen.remote_curve.size(), static_cast<std::size_t>(response.curve_size()));
+  EXPECT_EQ(seen.remote_guide.size(), static_cast<std::size_t>(response.guide_size()));
+  EXPECT_TRUE(seen.curve.empty());  // not this station's tool
+  request.set_cancel(true);
+  ASSERT_TRUE(other.sharp_edge(request, response).is_ok());
+  EXPECT_TRUE(wait_for([&] { return station.view().remote_curve.empty(); }));
+  EXPECT_TRUE(station.view().remote_guide.empty());
+  runtime.stop();
+  safe.close();
+}
+
 TEST(ClientBinary, DevicesAndUsageErrors) {
   std::string out;
   EXPECT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --list-devices", out), 0) << out;
