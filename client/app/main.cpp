@@ -154,17 +154,19 @@ int main(int argc, char** argv) {
                  "Save the last frame as PNG when stopping (works under Xvfb)");
   cli.add_option("--record", a.record,
                  "Record the device's trajectory to FILE (replay it with --device replay:FILE)");
-  cli.add_option("--tool", a.tool,
-                 "What the button does. fill: press near a highlighted hole to fill it.\n"
-                 "sharp-edge: press at four points along a crease around a filled hole (P1, P2\n"
-                 "on one side, P2 nearest the hole; P3, P4 on the other; button 2 takes the last\n"
-                 "back), the server previews the Hermite curve and the guiding surface (K / J:\n"
-                 "tangents 10% longer / shorter, live); press to confirm it (the patch\n"
-                 "snaps onto the guiding surface); hold and sweep to push the patch down to the\n"
-                 "curve (the tool is held to the guiding surface); button 2 smooths and\n"
-                 "finishes (seed 000 §4.2). Keyboard stylus: space = button 1, B = button 2.\n"
-                 "stitch: press on a boundary edge, drag to the other surface (the nearest\n"
-                 "boundary vertex lights up), release: one stitch triangle (Algorithm VIII)")
+  cli.add_option(
+         "--tool", a.tool,
+         "What the button does. fill: press near a highlighted hole to fill it.\n"
+         "sharp-edge: press at four points along a crease around a filled hole (P1, P2\n"
+         "on one side, P2 nearest the hole; P3, P4 on the other; button 2 takes the last\n"
+         "back), the server previews the Hermite curve and the guiding surface; press\n"
+         "and drag along the curve (P2 towards P3) to make both tangents longer, back to\n"
+         "make them shorter, live (K / J: 10% longer / shorter); click to confirm it (the\n"
+         "patch snaps onto the guiding surface); hold and sweep to push the patch down to the\n"
+         "curve (the tool is held to the guiding surface); button 2 smooths and\n"
+         "finishes (seed 000 §4.2). Keyboard stylus: space = button 1, B = button 2.\n"
+         "stitch: press on a boundary edge, drag to the other surface (the nearest\n"
+         "boundary vertex lights up), release: one stitch triangle (Algorithm VIII)")
       ->check(CLI::IsMember({"fill", "sharp-edge", "stitch"}))
       ->capture_default_str();
   cli.add_option("--push-step", a.push_step,

@@ -295,7 +295,7 @@ void Station::send_samples() {
         else if (held)
           sharp_edge_hold(sample.proxy);
         else if (released)
-          sharp_edge_release();
+          sharp_edge_release(sample.proxy);
         if (second) sharp_edge_second();
         break;
       case StationTool::Stitch:
@@ -342,7 +342,7 @@ void Station::publish_tool_state() {
         phase = fmt::format(": pick P{} of 4", picks_.size() + 1);
         break;
       case SharpPhase::Previewed:
-        phase = ": press to confirm the curve";
+        phase = ": click to confirm the curve, drag along it to change k";
         break;
       case SharpPhase::Snapped:
         phase = fmt::format(": sweep to push down ({} pushes), button 2 to smooth", pushes_);
@@ -382,21 +382,19 @@ void Station::sharp_edge_press(const Vec3& tool) {
       } else {
         take_preview(response);
         sharp_phase_ = SharpPhase::Previewed;
-        set_status(fmt::format("sharp edge: curve through the patch of {} faces; press to confirm",
-                               response.patch_faces()));
+        set_status(fmt::format(
+            "sharp edge: curve through the patch of {} faces; click to confirm, drag to change k",
+            response.patch_faces()));
       }
     }
   } else if (sharp_phase_ == SharpPhase::Previewed) {
-    request.set_confirm(true);
-    const Status s = client_.sharp_edge(request, response);
-    if (!s.is_ok()) {
-      set_status("sharp edge: " + s.to_string());
-    } else {
-      sharp_phase_ = SharpPhase::Snapped;
-      last_push_ = tool;
-      set_status(fmt::format("sharp edge: {} vertices on the guiding surface; sweep to push",
-                             response.curtain_vertices()));
-    }
+    // A click confirms, a drag adjusts k (decided on release: sharp_edge_release).
+    k_drag_.active = true;
+    k_drag_.moved = false;
+    k_drag_.start = tool;
+    k_drag_.k1 = k1_;
+    k_drag_.k4 = k4_;
+    k_drag_.sent_factor = 1;
   } else {
     last_push_ = tool;  // a new sweep starts here
     constrain_to_guide(tool);
@@ -435,7 +433,7 @@ void Station::apply_tangent_steps() {
     return;
   }
   take_preview(response);
-  set_status(fmt::format("sharp edge: k1 {:.4g}, k4 {:.4g}; press to confirm", k1_, k4_));
+  set_status(fmt::format("sharp edge: k1 {:.4g}, k4 {:.4g}; click to confirm", k1_, k4_));
   publish_tool_state();
 }
 
@@ -462,11 +460,70 @@ void Station::constrain_to_guide(const Vec3& tool) {
   loop_->set_constraint(plane);
 }
 
-void Station::sharp_edge_release() {
+void Station::sharp_edge_release(const Vec3& tool) {
   if (loop_) loop_->set_constraint({});  // the sweep is over: free the tool
+  if (sharp_phase_ != SharpPhase::Previewed || !k_drag_.active) return;
+  k_drag_.active = false;
+  if (k_drag_.moved) {  // the drag set k: keep the preview, a click confirms
+    set_status(fmt::format("sharp edge: k1 {:.4g}, k4 {:.4g}; click to confirm", k1_, k4_));
+    publish_tool_state();
+    return;
+  }
+  v1::SharpEdgeRequest request;
+  request.set_session_id(options_.session_id);
+  request.set_confirm(true);
+  v1::SharpEdgeResponse response;
+  const Status s = client_.sharp_edge(request, response);
+  if (!s.is_ok()) {
+    set_status("sharp edge: " + s.to_string());
+  } else {
+    sharp_phase_ = SharpPhase::Snapped;
+    last_push_ = tool;
+    set_status(fmt::format("sharp edge: {} vertices on the guiding surface; sweep to push",
+                           response.curtain_vertices()));
+  }
+  publish_tool_state();
+}
+
+double Station::drag_factor(const Vec3& tool) const {
+  // Along P2 -> P3: a quarter of the chord forward doubles both tangent lengths, backward
+  // halves them (a device-only way to set k, so the operator needs no keyboard).
+  if (picks_.size() < 4) return 1;
+  const Vec3 chord = picks_[2] - picks_[1];
+  if (!(chord.norm() > 0)) return 1;
+  const double along = (tool - k_drag_.start).dot(chord.normalized());
+  return std::exp2(std::clamp(along / (kDragDoublingChords * chord.norm()), -6.0, 6.0));
+}
+
+void Station::adjust_by_drag(const Vec3& tool) {
+  if (picks_.size() < 4) return;
+  const double chord = (picks_[2] - picks_[1]).norm();
+  if (!k_drag_.moved && (tool - k_drag_.start).norm() < kDragDeadZoneChords * chord) return;
+  k_drag_.moved = true;
+  const double factor = drag_factor(tool);
+  // A request only when k changes by more than 2% (the preview is a round trip).
+  if (std::abs(std::log(factor / k_drag_.sent_factor)) < std::log(1.02)) return;
+  v1::SharpEdgeRequest request;
+  request.set_session_id(options_.session_id);
+  request.mutable_adjust()->set_k1(k_drag_.k1 * factor);
+  request.mutable_adjust()->set_k4(k_drag_.k4 * factor);
+  v1::SharpEdgeResponse response;
+  const Status s = client_.sharp_edge(request, response);
+  if (!s.is_ok()) {
+    set_status("sharp edge: " + s.to_string());
+    return;
+  }
+  k_drag_.sent_factor = factor;
+  take_preview(response);
+  set_status(fmt::format("sharp edge: k1 {:.4g}, k4 {:.4g} (dragging)", k1_, k4_));
+  publish_tool_state();
 }
 
 void Station::sharp_edge_hold(const Vec3& tool) {
+  if (sharp_phase_ == SharpPhase::Previewed && k_drag_.active) {
+    adjust_by_drag(tool);
+    return;
+  }
   if (sharp_phase_ != SharpPhase::Snapped) return;
   const double step = push_step_;
   // Algorithm VI moves a vertex by the step per tool sample; a push goes out once the tool has

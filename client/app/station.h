@@ -75,7 +75,8 @@ struct StationView {
 enum class StationTool {
   Fill,       //!< press near a highlighted hole: fill it
   SharpEdge,  //!< press 4 times: P1..P4 (button 2 takes the last back) -> the server previews
-              //!< the Hermite curve; press: confirm (snap onto the guiding surface); hold and
+              //!< the Hermite curve; drag along P2 -> P3: scale k live; click: confirm (snap
+              //!< onto the guiding surface); hold and
               //!< sweep: push down (one tool sample per step); button 2: smooth, done
   Stitch,     //!< press on a boundary edge, drag to the other surface, release: one stitch
               //!< triangle to the boundary vertex nearest the tool (Algorithm VIII)
@@ -134,7 +135,9 @@ class Station {
   void sharp_edge_press(const Vec3& tool);
   void sharp_edge_hold(const Vec3& tool);
   void sharp_edge_second();
-  void sharp_edge_release();
+  void sharp_edge_release(const Vec3& tool);
+  double drag_factor(const Vec3& tool) const;
+  void adjust_by_drag(const Vec3& tool);
   void apply_tangent_steps();
   void take_preview(const v1::SharpEdgeResponse& response);
   //! The guiding surface's tangent plane at the curve point nearest \p tool (the fixture).
@@ -173,8 +176,19 @@ class Station {
   SharpPhase sharp_phase_ = SharpPhase::Picking;
   std::vector<Vec3> picks_;
   std::vector<Vec3> curve_;
-  std::vector<Vec3> guide_;            //!< the guiding surface, 3 points per triangle
-  double k1_ = 0, k4_ = 0;             //!< tangent lengths of the previewed curve
+  std::vector<Vec3> guide_;  //!< the guiding surface, 3 points per triangle
+  double k1_ = 0, k4_ = 0;   //!< tangent lengths of the previewed curve
+  //! A press while the curve is previewed: a drag along P2 -> P3 scales k, a click confirms.
+  struct KDrag {
+    bool active = false;
+    bool moved = false;  //!< left the dead zone: a drag, not a click
+    Vec3 start = Vec3::Zero();
+    double k1 = 0, k4 = 0;  //!< k at the press
+    double sent_factor = 1;
+  } k_drag_;
+  //! Drag distance (in chords |P3 - P2|) that doubles k, and the dead zone of a click.
+  static constexpr double kDragDoublingChords = 0.25;
+  static constexpr double kDragDeadZoneChords = 0.04;
   Vec3 guide_normal_ = Vec3::UnitZ();  //!< the guiding surface's extrusion direction
   Vec3 last_push_ = Vec3::Zero();
   std::uint64_t pushes_ = 0;
