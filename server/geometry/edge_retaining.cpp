@@ -278,20 +278,31 @@ PushResult push_down(Mesh& mesh, SharpEdgeState& state, const Vec3& proxy,
   };
   double best = std::numeric_limits<double>::infinity();
   bool any_on_guide = false;
-  for (const VertexHandle v : mesh.fv_range(touched)) {
+  const auto consider = [&](VertexHandle v) {
     const auto it = state.on_guide.find(v.idx());
-    if (it == state.on_guide.end()) continue;
+    if (it == state.on_guide.end()) return;
     any_on_guide = true;
     const auto [side, limit] = limit_of(it->second);
-    if (side * (it->second.s - limit) <= 0) continue;  // already there
+    if (side * (it->second.s - limit) <= 0) return;  // already there
     const double d = OpenMesh::cross(mesh.point(v) - proxy, direction).norm();
     if (d < best) {
       best = d;
       r.vertex = v;
     }
-  }
+  };
+  for (const VertexHandle v : mesh.fv_range(touched)) consider(v);
+  // [ours] Every curtain vertex of the touched triangle is done: the nearest one still to go
+  // among the patch triangles around it, so a sweep over a finished stretch keeps working
+  // where the curtain is still short of the curve (the thesis' rule alone leaves most samples
+  // of a sweep without effect once the first vertices are down).
+  if (!r.vertex.is_valid())
+    for (const VertexHandle corner : mesh.fv_range(touched))
+      for (const FaceHandle f : mesh.vf_range(corner))
+        if (f != touched && patch.contains(f))
+          for (const VertexHandle v : mesh.fv_range(f)) consider(v);
   if (!r.vertex.is_valid()) {
-    r.why_not = any_on_guide ? "the touched triangle's vertices are already at the curve"
+    r.why_not = any_on_guide ? "the touched triangle's vertices (and its neighbours') are "
+                               "already at the curve"
                              : "the touched triangle has no vertex on the guiding surface";
     r.at_limit = any_on_guide;
     return r;

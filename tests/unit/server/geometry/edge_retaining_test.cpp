@@ -6,6 +6,7 @@
 #include "server/geometry/edge_retaining.h"
 
 #include <algorithm>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -107,8 +108,8 @@ TEST(PushDown, StepsToTheCurveAndStopsOrGoesToTheDepth) {
   for (int i = 0; i < 5; ++i)
     push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
   EXPECT_NEAR(g.mesh.point(v)[2], -0.5, 1e-9);  // stopped at the curve
-  // The vertex is at the curve: the next curtain vertex of the face moves instead, and once
-  // all of them are there the push is refused.
+  // The vertex is at the curve: the next curtain vertex of the face (or of the triangles
+  // around it) moves instead, and once all of them are there the push is refused.
   for (int i = 0; i < 20; ++i)
     push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
   r = push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
@@ -124,6 +125,43 @@ TEST(PushDown, StepsToTheCurveAndStopsOrGoesToTheDepth) {
   EXPECT_FALSE(push_down(g.mesh, g.state, proxy, proxy - Vec3(1, 0, 0), FaceHandle(0), push).moved);
   push.step = 0;
   EXPECT_FALSE(push_down(g.mesh, g.state, proxy, proxy - Vec3(1, 0, 0), touched, push).moved);
+}
+
+TEST(PushDown, MovesOnToTheTouchedTrianglesNeighboursOnceItsVerticesAreDone) {
+  FilledGrid g = filled_grid(5);
+  // Off the grid's symmetry line, so the curtain cuts many patch edges.
+  g.state.guide =
+      make_guide_surface(straight({2, 2.9, -0.5}, {4, 2.9, -0.5}), {0, 0, 1}, 0.25, 2.0);
+  snap_to_guide(g.mesh, g.state);
+  ASSERT_GE(g.state.on_guide.size(), 3u);
+  const VertexHandle first(g.state.on_guide.begin()->first);
+  FaceHandle touched;
+  for (const FaceHandle f : g.mesh.vf_range(first))
+    if (std::find(g.state.patch.begin(), g.state.patch.end(), f) != g.state.patch.end())
+      touched = f;
+  ASSERT_TRUE(touched.is_valid());
+  std::set<int> own;
+  for (const VertexHandle u : g.mesh.fv_range(touched))
+    if (g.state.on_guide.count(u.idx())) own.insert(u.idx());
+  const Vec3 proxy = g.mesh.point(first) + Vec3(0, 0, 0.01);
+  PushOptions push;
+  push.step = 0.2;
+  std::set<int> moved;
+  PushResult r;
+  for (int i = 0; i < 500; ++i) {
+    r = push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
+    if (!r.moved) break;
+    moved.insert(r.vertex.idx());
+  }
+  EXPECT_FALSE(r.moved);
+  EXPECT_NE(r.why_not.find("already at the curve"), std::string::npos) << r.why_not;
+  std::size_t neighbours = 0;
+  for (const int u : moved) {
+    EXPECT_NEAR(g.mesh.point(VertexHandle(u))[2], -0.5, 1e-9);  // each stopped at the curve
+    if (!own.count(u)) ++neighbours;
+  }
+  EXPECT_GT(neighbours, 0u) << g.state.on_guide.size() << " curtain vertices, " << own.size()
+                            << " on the touched triangle";
 }
 
 TEST(SmoothByNormalPropagation, BringsABumpBackToThePlaneOfItsSurroundings) {
