@@ -321,7 +321,9 @@ int main(int argc, char** argv) {
     auto& ui = loop.ui_state();
     ui.update();
     if (viewer) {
-      viewer->draw(make_scene(v, ui.front()));
+      view::Scene scene = make_scene(v, ui.front());
+      scene.status = status_line(v, loop, safe);
+      viewer->draw(scene);
       if (!viewer->should_close() && viewer->input().quit) break;
       if (viewer->should_close()) break;
       if (sim)

@@ -1,5 +1,7 @@
 #include "client/view/viewer.h"
 
+#include "client/view/stroke_font.h"
+
 // GLFW's header brings in GL/gl.h, which glext.h needs first.
 // clang-format off
 #define GL_GLEXT_PROTOTYPES 1
@@ -89,39 +91,36 @@ Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& centr
   return m;
 }
 
-// Seven-segment digits: segment ends on a 0..1 × 0..2 cell (x right, y up), segments a–g in
-// the usual order (a top, b upper right, c lower right, d bottom, e lower left, f upper left,
-// g middle). Lines are all the viewer draws, so labels need no texture or font file.
-constexpr std::array<std::array<float, 4>, 7> kSegments = {{
-    {0, 2, 1, 2},  // a
-    {1, 2, 1, 1},  // b
-    {1, 1, 1, 0},  // c
-    {0, 0, 1, 0},  // d
-    {0, 1, 0, 0},  // e
-    {0, 2, 0, 1},  // f
-    {0, 1, 1, 1},  // g
-}};
-// Bit i set = segment i lit, for 0..9.
-constexpr std::array<std::uint8_t, 10> kDigitSegments = {0x3F, 0x06, 0x5B, 0x4F, 0x66,
-                                                         0x6D, 0x7D, 0x07, 0x7F, 0x6F};
-
 }  // namespace
 
-std::vector<std::array<float, 2>> digit_strokes(const std::string& text) {
-  std::vector<std::array<float, 2>> ends;
-  float x = 0;
-  for (const char ch : text) {
-    if (ch < '0' || ch > '9') continue;
-    const std::uint8_t lit = kDigitSegments[static_cast<std::size_t>(ch - '0')];
-    for (std::size_t s = 0; s < kSegments.size(); ++s) {
-      if (!(lit & (1u << s))) continue;
-      const auto& seg = kSegments[s];
-      ends.push_back({x + seg[0], seg[1]});
-      ends.push_back({x + seg[2], seg[3]});
+std::vector<std::string> wrap_status(std::string_view status, std::size_t columns,
+                                     std::size_t max_lines) {
+  // Break at the " | " separators of the status line first, then at spaces; a word longer
+  // than a line is cut.
+  std::vector<std::string> lines;
+  std::string line;
+  std::size_t start = 0;
+  while (start < status.size() && lines.size() < max_lines) {
+    std::size_t end = status.find(' ', start);
+    if (end == std::string_view::npos) end = status.size();
+    std::string_view word = status.substr(start, end - start);
+    start = end + 1;
+    if (word.empty()) continue;
+    const bool separator = word == "|";
+    if (!line.empty() && line.size() + 1 + word.size() > columns) {
+      lines.push_back(line);
+      line.clear();
+      if (separator) continue;  // a separator does not start a line
     }
-    x += 1.6f;  // advance: one cell and a gap
+    while (word.size() > columns && lines.size() < max_lines) {
+      lines.emplace_back(word.substr(0, columns));
+      word.remove_prefix(columns);
+    }
+    if (!line.empty()) line += ' ';
+    line += word;
   }
-  return ends;
+  if (!line.empty() && lines.size() < max_lines) lines.push_back(line);
+  return lines;
 }
 
 Viewer::Viewer(ViewerOptions options) : options_(std::move(options)) {}
@@ -283,8 +282,12 @@ void Viewer::draw(const Scene& scene) {
   glViewport(0, 0, width, height);
   glClearColor(0.08f, 0.09f, 0.11f, 1.0f);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  if (!scene.status.empty())
-    glfwSetWindowTitle(window_, (options_.title + " — " + scene.status).c_str());
+  if (scene.status != title_status_) {  // the title only when it changed (a window-system call)
+    title_status_ = scene.status;
+    glfwSetWindowTitle(
+        window_,
+        (scene.status.empty() ? options_.title : options_.title + " — " + scene.status).c_str());
+  }
   if (!scene.surface || bounds_.isEmpty()) {
     glfwSwapBuffers(window_);
     glfwPollEvents();
@@ -370,30 +373,41 @@ void Viewer::draw(const Scene& scene) {
     glUniform1f(point_size, c.size_px);
     glDrawArrays(GL_POINTS, 0, 1);
   }
-  // Labels: the anchor projected to normalised device coordinates, the digits drawn there in
-  // pixels (up and to the right of the point, clear of its cursor) with an identity transform.
-  if (!scene.labels.empty()) {
-    const Eigen::Matrix4f identity = Eigen::Matrix4f::Identity();
-    glUniformMatrix4fv(glGetUniformLocation(program_, "mvp"), 1, GL_FALSE, identity.data());
-    const float px_x = 2.0f / float(std::max(width, 1)), px_y = 2.0f / float(std::max(height, 1));
-    for (const Label& label : scene.labels) {
-      const Vec3 q = label.anchor - centre;
-      const Eigen::Vector4f clip =
-          mvp * Eigen::Vector4f(float(q.x()), float(q.y()), float(q.z()), 1);
-      if (!(clip.w() > 0)) continue;           // behind the eye
-      const float unit = label.height_px / 2;  // a cell is two units high
-      const float x0 = clip.x() / clip.w() + 10 * px_x, y0 = clip.y() / clip.w() + 10 * px_y;
-      buffer.clear();
-      for (const auto& end : digit_strokes(label.text))
-        buffer.insert(buffer.end(),
-                      {x0 + end[0] * unit * px_x, y0 + end[1] * unit * px_y, 0.f, 0.f, 0.f, 1.f});
-      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(buffer.size() * sizeof(float)),
-                   buffer.data(), GL_STREAM_DRAW);
-      glUniform3f(colour, label.colour.x(), label.colour.y(), label.colour.z());
-      glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(buffer.size() / 6));
-    }
-    glUniformMatrix4fv(glGetUniformLocation(program_, "mvp"), 1, GL_FALSE, mvp.data());
+  // Text in pixels (labels beside their anchors, the status line at the top left), drawn with
+  // an identity transform in normalised device coordinates.
+  const Eigen::Matrix4f identity = Eigen::Matrix4f::Identity();
+  glUniformMatrix4fv(glGetUniformLocation(program_, "mvp"), 1, GL_FALSE, identity.data());
+  const float px_x = 2.0f / float(std::max(width, 1)), px_y = 2.0f / float(std::max(height, 1));
+  const auto draw_text = [&](std::string_view text, float x0, float y0, float height_px,
+                             const Eigen::Vector3f& rgb) {
+    const float unit = height_px / kGlyphHeight;
+    buffer.clear();
+    for (const auto& end : text_strokes(text))
+      buffer.insert(buffer.end(),
+                    {x0 + end[0] * unit * px_x, y0 + end[1] * unit * px_y, 0.f, 0.f, 0.f, 1.f});
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(buffer.size() * sizeof(float)),
+                 buffer.data(), GL_STREAM_DRAW);
+    glUniform3f(colour, rgb.x(), rgb.y(), rgb.z());
+    glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(buffer.size() / 6));
+  };
+  for (const Label& label : scene.labels) {
+    const Vec3 q = label.anchor - centre;
+    const Eigen::Vector4f clip = mvp * Eigen::Vector4f(float(q.x()), float(q.y()), float(q.z()), 1);
+    if (!(clip.w() > 0)) continue;  // behind the eye
+    // Up and to the right of the point, clear of its cursor.
+    draw_text(label.text, clip.x() / clip.w() + 10 * px_x, clip.y() / clip.w() + 10 * px_y,
+              label.height_px, label.colour);
   }
+  if (options_.status_in_view && !scene.status.empty()) {
+    const float text_px = 12, line_px = 18;
+    const std::size_t columns = static_cast<std::size_t>(
+        std::max(8.0f, (float(width) - 16) / (text_px / kGlyphHeight * kGlyphAdvance)));
+    const std::vector<std::string> lines = wrap_status(scene.status, columns, 3);
+    for (std::size_t i = 0; i < lines.size(); ++i)
+      draw_text(lines[i], -1 + 8 * px_x, 1 - (8 + text_px + float(i) * line_px) * px_y, text_px,
+                {0.92f, 0.92f, 0.92f});
+  }
+  glUniformMatrix4fv(glGetUniformLocation(program_, "mvp"), 1, GL_FALSE, mvp.data());
   glEnable(GL_DEPTH_TEST);
   if (options_.keep_frames) {
     // From the back buffer before the swap: defined even for a hidden window.

@@ -3,15 +3,16 @@
 //! \file viewer.h
 //! \brief The station's GLFW window with an OpenGL 3.3 core context: the shaded mesh, hole
 //! boundaries in colour with the hole under the tool highlighted, the tool (device) and proxy
-//! cursors, other operators' cursors, overlay polylines and digit labels, an orbit/zoom
-//! camera, and a status line (in the title bar). Screenshots are PNG, written atomically. Under
-//! Xvfb (Mesa llvmpipe) the same code draws without a display, which is how the tests check the
-//! pixels.
+//! cursors, other operators' cursors, overlay polylines and text labels, an orbit/zoom camera,
+//! and a status line (drawn in the frame with a stroke font, and in the title bar). Screenshots
+//! are PNG, written atomically. Under Xvfb (Mesa llvmpipe) the same code draws without a
+//! display, which is how the tests check the pixels.
 
 #include <array>
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -36,8 +37,7 @@ struct Polyline {
   Eigen::Vector3f colour{1, 1, 1};
 };
 
-//! A short run of digits drawn in screen space beside a model point (the sharp-edge picks'
-//! numbers); characters other than 0-9 are skipped.
+//! A short text drawn in screen space beside a model point (the sharp-edge picks' numbers).
 struct Label {
   Vec3 anchor = Vec3::Zero();
   std::string text;
@@ -61,7 +61,8 @@ struct ViewerOptions {
   int width = 960;
   int height = 720;
   bool visible = true;
-  bool keep_frames = false;  //!< read each frame back (for screenshots and tests)
+  bool keep_frames = false;    //!< read each frame back (for screenshots and tests)
+  bool status_in_view = true;  //!< draw the status line in the frame (it is also the title)
   std::string title = "touchmend";
 };
 
@@ -75,9 +76,10 @@ struct InputState {
   bool quit = false;
 };
 
-//! The line segments (pairs of ends, in units of half a digit's height, x right, y up from the
-//! lower left) that draw \p text's digits.
-std::vector<std::array<float, 2>> digit_strokes(const std::string& text);
+//! The status text as at most \p max_lines lines of at most \p columns characters, broken at
+//! its " | " separators and spaces.
+std::vector<std::string> wrap_status(std::string_view status, std::size_t columns,
+                                     std::size_t max_lines);
 
 class Viewer {
  public:
@@ -106,6 +108,7 @@ class Viewer {
   ViewerOptions options_;
   GLFWwindow* window_ = nullptr;
   std::string gl_version_;
+  std::string title_status_;
   unsigned program_ = 0, vao_ = 0, vbo_ = 0, ebo_ = 0;
   unsigned line_vao_ = 0, line_vbo_ = 0;
   std::size_t index_count_ = 0;

@@ -654,6 +654,16 @@ TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
   }
   EXPECT_GT(mesh_pixels, total / 50) << "the mesh is not drawn";
   EXPECT_GT(highlight_pixels, 20u) << "no highlighted hole";
+  // The status line: light grey strokes (0.92) in the top rows, brighter than the lit mesh can be
+  // (its colour is at most 0.78), and only there.
+  std::size_t status_pixels = 0, stray_pixels = 0;
+  for (std::size_t i = 0; i < total; ++i) {
+    const int r = pixels[3 * i], g = pixels[3 * i + 1], b = pixels[3 * i + 2];
+    if (r > 215 && r < 250 && std::abs(r - g) < 4 && std::abs(g - b) < 4)
+      ++(i / image.width < 70 ? status_pixels : stray_pixels);
+  }
+  EXPECT_GT(status_pixels, 500u) << "no status line";
+  EXPECT_LT(stray_pixels, 100u);
   EXPECT_LT(mesh_pixels + highlight_pixels, total) << "nothing but mesh: no background";
 }
 
