@@ -228,8 +228,10 @@ int run_bridge(const BridgeArgs& args, std::ostream& out, std::ostream& err) {
   nlohmann::json results = nlohmann::json::array();
   std::size_t bridged = 0, faces = 0;
   std::string text;
-  for (const geometry::Gap* g : selected) {
-    const geometry::DetectedGapBridge b = geometry::bridge_detected_gap(mesh, *g);
+  const geometry::DetectedGapsBridge all = geometry::bridge_detected_gaps(mesh, selected);
+  for (std::size_t k = 0; k < selected.size(); ++k) {
+    const geometry::Gap* g = selected[k];
+    const geometry::DetectedGapBridge& b = all.gaps[k];
     std::size_t end_faces = 0;
     for (const auto& f : b.end_fills) end_faces += f.faces_added;
     bridged += b.zip.ok ? 1 : 0;
@@ -246,12 +248,29 @@ int run_bridge(const BridgeArgs& args, std::ostream& out, std::ostream& err) {
     }
     results.push_back(j);
   }
+  std::size_t leftover_faces = 0, leftover_open = 0;
+  for (const auto& f : all.leftover_fills) {
+    leftover_faces += f.faces_added;
+    leftover_open += f.filled ? 0 : 1;
+    if (!f.filled)
+      text += fmt::format("between the zippers: a narrow hole LEFT OPEN: {}\n", f.reason);
+  }
+  faces += leftover_faces;
+  if (!all.leftover_fills.empty())
+    text += fmt::format("between the zippers: {} narrow holes filled ({} faces)\n",
+                        all.leftover_fills.size() - leftover_open, leftover_faces);
   geometry::WriteResult written;
   if (!write_result(mesh, args.output, args.binary, err, written)) return kExitBadInput;
   if (args.json) {
-    out << nlohmann::json{{"input", args.file},        {"output", args.output},
-                          {"gaps_found", gaps.size()}, {"bridged", bridged},
-                          {"faces_added", faces},      {"gaps", results}}
+    out << nlohmann::json{{"input", args.file},
+                          {"output", args.output},
+                          {"gaps_found", gaps.size()},
+                          {"bridged", bridged},
+                          {"faces_added", faces},
+                          {"gaps", results},
+                          {"leftover_holes_filled", all.leftover_fills.size() - leftover_open},
+                          {"leftover_holes_open", leftover_open},
+                          {"leftover_faces", leftover_faces}}
                .dump(2)
         << "\n";
   } else {

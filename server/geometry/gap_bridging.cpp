@@ -431,4 +431,35 @@ DetectedGapBridge bridge_detected_gap(Mesh& mesh, const Gap& gap, const FillOpti
   return out;
 }
 
+std::size_t DetectedGapsBridge::bridged() const {
+  return static_cast<std::size_t>(
+      std::count_if(gaps.begin(), gaps.end(), [](const DetectedGapBridge& b) { return b.zip.ok; }));
+}
+
+DetectedGapsBridge bridge_detected_gaps(Mesh& mesh, const std::vector<const Gap*>& gaps,
+                                        const FillOptions& fill, const StitchOptions& options) {
+  DetectedGapsBridge out;
+  std::set<int> zipped;
+  double widest = 0;
+  for (const Gap* gap : gaps) {
+    out.gaps.push_back(bridge_detected_gap(mesh, *gap, fill, options));
+    const DetectedGapBridge& b = out.gaps.back();
+    if (!b.zip.ok) continue;
+    widest = std::max(widest, gap->max_width);
+    for (const FaceHandle f : b.zip.faces) zipped.insert(f.idx());
+  }
+  if (zipped.empty()) return out;
+  const HoleSearchResult holes = find_holes(mesh);
+  for (const Hole& hole : holes.holes) {
+    if (!(hole.perimeter > 0) || hole.area > widest * hole.perimeter) continue;
+    const bool at_zipper =
+        std::any_of(hole.halfedges.begin(), hole.halfedges.end(), [&](HalfedgeHandle h) {
+          const FaceHandle f = mesh.face_handle(mesh.opposite_halfedge_handle(h));
+          return f.is_valid() && zipped.count(f.idx()) > 0;
+        });
+    if (at_zipper) out.leftover_fills.push_back(fill_hole(mesh, hole, fill));
+  }
+  return out;
+}
+
 }  // namespace touchmend::geometry

@@ -109,4 +109,21 @@ struct DetectedGapBridge {
 DetectedGapBridge bridge_detected_gap(Mesh& mesh, const Gap& gap, const FillOptions& fill = {},
                                       const StitchOptions& options = {});
 
+struct DetectedGapsBridge {
+  std::vector<DetectedGapBridge> gaps;  //!< one per gap asked for, in order
+  //! The narrow holes the zippers left (pieces of a band between two gaps' runs, or where a
+  //! run ended), closed by the hole filler.
+  std::vector<HoleFillReport> leftover_fills;
+  std::size_t bridged() const;
+};
+
+//! Several detected gaps (all of a band, say): each zipped as bridge_detected_gap does, then
+//! every hole next to the zippers' faces that is a narrow strip (area / perimeter at most the
+//! widest bridged gap's width — a strip of width w has w / 2) is filled: a band cut through an
+//! irregular surface breaks into several facing runs, and what lies between them is closed
+//! here instead of being left open.
+DetectedGapsBridge bridge_detected_gaps(Mesh& mesh, const std::vector<const Gap*>& gaps,
+                                        const FillOptions& fill = {},
+                                        const StitchOptions& options = {});
+
 }  // namespace touchmend::geometry

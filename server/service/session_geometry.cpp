@@ -661,18 +661,28 @@ SessionGeometry::FillOutcome SessionGeometry::bridge(const rpc::MeshDocument& do
   }
   std::size_t bridged = 0;
   std::vector<std::string> refused;
-  for (const geometry::Gap* g : selected) {
-    const geometry::DetectedGapBridge b = geometry::bridge_detected_gap(mesh_, *g, fill);
+  const geometry::DetectedGapsBridge all = geometry::bridge_detected_gaps(mesh_, selected, fill);
+  for (std::size_t k = 0; k < selected.size(); ++k) {
+    const geometry::DetectedGapBridge& b = all.gaps[k];
     if (!b.zip.ok) {
-      refused.push_back(fmt::format("gap {}: {}", g->id, b.zip.reason));
+      refused.push_back(fmt::format("gap {}: {}", selected[k]->id, b.zip.reason));
       continue;
     }
     ++bridged;
     faces.insert(faces.end(), b.zip.faces.begin(), b.zip.faces.end());
     for (const auto& f : b.end_fills) collect(f);
   }
+  std::size_t leftovers_filled = 0;
+  for (const auto& f : all.leftover_fills) {
+    collect(f);
+    leftovers_filled += f.filled ? 1 : 0;
+  }
   holes_.reset();
-  summary = fmt::format("bridged {} of {} gaps{}{}", bridged, selected.size(),
+  summary = fmt::format("bridged {} of {} gaps{}{}{}", bridged, selected.size(),
+                        all.leftover_fills.empty()
+                            ? ""
+                            : fmt::format(", {} of {} narrow holes between the zippers filled",
+                                          leftovers_filled, all.leftover_fills.size()),
                         refused.empty() ? "" : "; ", fmt::join(refused, "; "));
   if (bridged == 0 && !selected.empty()) {
     outcome.status = {StatusCode::FailedPrecondition, summary};

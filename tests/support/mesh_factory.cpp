@@ -184,4 +184,30 @@ MeshSoup subdivide_midpoint(const MeshSoup& soup) {
   return out;
 }
 
+MeshSoup cut_band(const MeshSoup& soup, double width_edges, std::size_t* removed) {
+  if (soup.points.empty() || soup.triangles.empty()) return soup;
+  Vec3 lo = soup.points.front(), hi = lo;
+  for (const Vec3& p : soup.points) {
+    lo.minimize(p);
+    hi.maximize(p);
+  }
+  double edges = 0;
+  for (const auto& t : soup.triangles)
+    for (int k = 0; k < 3; ++k) edges += (soup.points[t[k]] - soup.points[t[(k + 1) % 3]]).norm();
+  const double mean_edge = edges / (3.0 * static_cast<double>(soup.triangles.size()));
+  const Vec3 size = hi - lo;
+  const int axis = size[0] >= size[1] && size[0] >= size[2] ? 0 : (size[1] >= size[2] ? 1 : 2);
+  const double centre = 0.5 * (lo[axis] + hi[axis]);
+  const double half = 0.5 * width_edges * mean_edge;
+  MeshSoup banded;
+  banded.points = soup.points;
+  for (const auto& t : soup.triangles) {
+    bool inside = false;
+    for (const auto v : t) inside = inside || std::abs(soup.points[v][axis] - centre) < half;
+    if (!inside) banded.triangles.push_back(t);
+  }
+  if (removed) *removed = soup.triangles.size() - banded.triangles.size();
+  return banded;
+}
+
 }  // namespace touchmend::testing

@@ -50,6 +50,12 @@ MeshSoup two_plates(int n, double gap);
 //! \p soup as OFF text (through the mesh builder, as a client would upload it).
 std::string to_off(const MeshSoup& soup);
 
+//! \p soup with a band cut out across its middle: every face with a corner in the slab
+//! \p width_edges mean edge lengths wide through the bounding-box centre, normal to the longest
+//! axis (two registered surfaces with a gap between them). \p removed gets the number of faces
+//! cut.
+MeshSoup cut_band(const MeshSoup& soup, double width_edges, std::size_t* removed = nullptr);
+
 //! 1-to-4 midpoint subdivision (same surface, twice the boundary vertices).
 MeshSoup subdivide_midpoint(const MeshSoup& soup);
 
