@@ -13,6 +13,8 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <png.h>
 #include <thread>
 
@@ -264,20 +266,6 @@ void press_at(std::vector<Waypoint>& w, const Vec3& p, const Vec3& away) {
   w.push_back({p + 1.0 * away, 0.15, 0});
 }
 
-//! Runs the station on a replayed trajectory until it ends (plus a moment).
-void replay(app::Station& station, const device::Trajectory& trajectory,
-            const Eigen::AlignedBox3d& model, const Eigen::AlignedBox3d& workspace) {
-  device::ReplayDevice device(trajectory, "script");
-  device::SafetyFilter safe(device);
-  ASSERT_TRUE(safe.open().ok);
-  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
-  runtime.start();
-  const double seconds = trajectory.samples.back().t + 1.0;
-  std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
-  runtime.stop();
-  safe.close();
-}
-
 //! A session holding the cube [0, 8]³ with a hole across its edge x = z = 8 (around y = 4),
 //! filled with \p shape.
 void filled_cube_session(ServerProcess& server, v1::PatchShape shape, v1::SessionInfo& info,
@@ -293,6 +281,80 @@ void filled_cube_session(ServerProcess& server, v1::PatchShape shape, v1::Sessio
   fill.mutable_selection()->set_all(true);
   fill.mutable_options()->set_shape(shape);
   ASSERT_TRUE(setup.fill_holes(fill, filled).is_ok());
+}
+
+//! A server holding the filled cube-edge session and a station on it, with the model's place
+//! in the tests' device workspace.
+struct CubeEdgeStation {
+  TempDir dir;
+  ServerProcess server{dir.path()};
+  v1::SessionInfo info;
+  v1::EditResponse filled;
+  std::unique_ptr<app::Station> station;
+  Eigen::AlignedBox3d model;
+  Eigen::AlignedBox3d workspace{Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1)};
+  haptics::WorkspaceMap map;
+};
+
+//! Starts \p s: the server, the cube filled with \p shape, the station with \p tool (use under
+//! ASSERT_NO_FATAL_FAILURE).
+void start_cube_edge_station(CubeEdgeStation& s, v1::PatchShape shape, app::StationTool tool,
+                             double push_step = 0) {
+  ASSERT_TRUE(s.server.start()) << s.server.log();
+  ASSERT_NO_FATAL_FAILURE(filled_cube_session(s.server, shape, s.info, s.filled));
+  app::StationOptions options;
+  options.session_id = s.info.session_id();
+  options.tool = tool;
+  options.push_step = push_step;
+  s.station = std::make_unique<app::Station>(s.server.connect(), options);
+  ASSERT_TRUE(s.station->start().is_ok());
+  s.model = app::bounds_of(s.station->document());
+  s.map = haptics::WorkspaceMap::fit(s.model, s.workspace);
+}
+
+//! The station running on a replayed trajectory (its haptic loop, proxy updates and network
+//! side) until this is destroyed.
+class ReplayedRun {
+ public:
+  ReplayedRun(app::Station& station, const device::Trajectory& trajectory,
+              const Eigen::AlignedBox3d& model, const Eigen::AlignedBox3d& workspace)
+      : device_(trajectory, "script"), safe_(device_) {
+    if (!safe_.open().ok) return;
+    runtime_.emplace(station, safe_, app::loop_options_for(model, workspace));
+    runtime_->start();
+  }
+  ~ReplayedRun() { stop(); }
+  ReplayedRun(const ReplayedRun&) = delete;
+  ReplayedRun& operator=(const ReplayedRun&) = delete;
+  bool running() const { return runtime_.has_value(); }
+  void stop() {
+    if (!runtime_) return;
+    runtime_->stop();
+    runtime_.reset();
+    safe_.close();
+  }
+
+ private:
+  device::ReplayDevice device_;
+  device::SafetyFilter safe_;
+  std::optional<app::StationRuntime> runtime_;
+};
+
+//! Runs the station on a replayed trajectory until it ends (plus a moment).
+void replay(app::Station& station, const device::Trajectory& trajectory,
+            const Eigen::AlignedBox3d& model, const Eigen::AlignedBox3d& workspace) {
+  ReplayedRun run(station, trajectory, model, workspace);
+  ASSERT_TRUE(run.running());
+  const double seconds = trajectory.samples.back().t + 1.0;
+  std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
+}
+
+//! Polls \p done until it holds or \p limit has passed; its last answer.
+template <class Done>
+bool wait_until(const Done& done, std::chrono::milliseconds limit = 10s) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (!done() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(5ms);
+  return done();
 }
 
 TEST(Station, ReplayedStitchDragCreatesTheTriangle) {
@@ -335,20 +397,11 @@ TEST(Station, ReplayedStitchDragCreatesTheTriangle) {
 }
 
 TEST(Station, ReplayedSharpEdgePicksPushesAndSmoothsACubeEdge) {
-  TempDir dir;
-  ServerProcess server(dir.path());
-  ASSERT_TRUE(server.start()) << server.log();
   // The cube [0, 8]³ with a hole across its edge x = z = 8, filled rounded (faired) first.
-  v1::SessionInfo info;
-  v1::EditResponse filled;
-  ASSERT_NO_FATAL_FAILURE(filled_cube_session(server, v1::PATCH_SHAPE_FAIR, info, filled));
-
-  app::StationOptions options;
-  options.session_id = info.session_id();
-  options.tool = app::StationTool::SharpEdge;
-  options.push_step = 0.1;
-  app::Station station(server.connect(), options);
-  ASSERT_TRUE(station.start().is_ok());
+  CubeEdgeStation s;
+  ASSERT_NO_FATAL_FAILURE(
+      start_cube_edge_station(s, v1::PATCH_SHAPE_FAIR, app::StationTool::SharpEdge, 0.1));
+  app::Station& station = *s.station;
   // How near the patch comes to the edge x = z = 8 in its middle (the hole, radius 2.2 around
   // (8, 4, 8), took every vertex of the cube there that is nearer than 1.6 to the edge).
   const auto nearest_to_edge = [](const rpc::MeshDocument& d) {
@@ -362,10 +415,6 @@ TEST(Station, ReplayedSharpEdgePicksPushesAndSmoothsACubeEdge) {
   };
   const double before_gap = nearest_to_edge(station.document());
   ASSERT_GT(before_gap, 0.2);
-  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
-  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
   const Vec3 diagonal = Vec3(1, 0, 1).normalized();
   std::vector<Waypoint> w;
   w.push_back({Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0});
@@ -381,13 +430,13 @@ TEST(Station, ReplayedSharpEdgePicksPushesAndSmoothsACubeEdge) {
   w.push_back({Vec3(8, 4, 8) + 1.0 * diagonal, 0.2, 0});
   w.push_back({Vec3(8, 4, 8) + 1.0 * diagonal, 0.1, 2});  // button 2: smooth
   w.push_back({Vec3(8, 4, 8) + 1.5 * diagonal, 0.2, 0});
-  replay(station, path(map, workspace, w), model, workspace);
+  ASSERT_NO_FATAL_FAILURE(replay(station, path(s.map, s.workspace, w), s.model, s.workspace));
 
   const app::StationView after = station.view();
   EXPECT_GT(station.pushes(), 0u) << after.status;
   EXPECT_NE(after.status.find("smoothed after"), std::string::npos) << after.status;
   EXPECT_TRUE(after.picks.empty());  // the tool finished
-  net::RepairClient check(server.connect());
+  net::RepairClient check(s.server.connect());
   rpc::MeshDocument doc;
   ASSERT_TRUE(check.download_document(station.session_id(), doc).is_ok());
   EXPECT_TRUE(station.document() == doc);
@@ -406,44 +455,24 @@ TEST(Station, ReplayedSharpEdgePicksPushesAndSmoothsACubeEdge) {
 }
 
 TEST(Station, SharpEdgeTangentsAdjustLiveWithoutAnEdit) {
-  TempDir dir;
-  ServerProcess server(dir.path());
-  ASSERT_TRUE(server.start()) << server.log();
-  v1::SessionInfo info;
-  v1::EditResponse filled;
-  ASSERT_NO_FATAL_FAILURE(filled_cube_session(server, v1::PATCH_SHAPE_AUTO, info, filled));
-  app::StationOptions options;
-  options.session_id = info.session_id();
-  options.tool = app::StationTool::SharpEdge;
-  app::Station station(server.connect(), options);
-  ASSERT_TRUE(station.start().is_ok());
-  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
-  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  CubeEdgeStation s;
+  ASSERT_NO_FATAL_FAILURE(
+      start_cube_edge_station(s, v1::PATCH_SHAPE_AUTO, app::StationTool::SharpEdge));
+  app::Station& station = *s.station;
   const Vec3 diagonal = Vec3(1, 0, 1).normalized();
   std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
   // P1 off the edge's line (a bend), so longer tangents move the curve's middle.
   for (const Vec3& p : {Vec3(8, 0.5, 7.0), Vec3(8, 1.6, 8), Vec3(8, 6.4, 8), Vec3(8, 7.5, 8)})
     press_at(w, p, diagonal);
   w.push_back({Vec3(8, 4, 8) + 2.0 * diagonal, 6.0, 0});  // then wait while k is adjusted
-  device::ReplayDevice device(path(map, workspace, w), "picks");
-  device::SafetyFilter safe(device);
-  ASSERT_TRUE(safe.open().ok);
-  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
-  runtime.start();
-  const auto wait_for = [&](const auto& done) {
-    const auto deadline = std::chrono::steady_clock::now() + 10s;
-    while (!done() && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(10ms);
-    return done();
-  };
-  ASSERT_TRUE(wait_for([&] { return !station.view().curve.empty(); })) << station.view().status;
+  ReplayedRun run(station, path(s.map, s.workspace, w), s.model, s.workspace);
+  ASSERT_TRUE(run.running());
+  ASSERT_TRUE(wait_until([&] { return !station.view().curve.empty(); })) << station.view().status;
   const app::StationView first = station.view();
   EXPECT_EQ(first.picks.size(), 4u);
   EXPECT_FALSE(first.guide.empty());
   station.adjust_tangents(5);
-  ASSERT_TRUE(wait_for([&] { return station.view().k1 > first.k1 * 1.5; }))
+  ASSERT_TRUE(wait_until([&] { return station.view().k1 > first.k1 * 1.5; }))
       << station.view().status;
   const app::StationView longer = station.view();
   EXPECT_NEAR(longer.k1, first.k1 * std::pow(1.1, 5), 1e-9 * first.k1);
@@ -451,29 +480,17 @@ TEST(Station, SharpEdgeTangentsAdjustLiveWithoutAnEdit) {
   const Vec3 a = first.curve[first.curve.size() / 2], b = longer.curve[longer.curve.size() / 2];
   EXPECT_GT((a - b).norm(), 1e-3);  // the preview changed
   station.adjust_tangents(-5);
-  ASSERT_TRUE(wait_for([&] { return std::abs(station.view().k1 - first.k1) < 1e-9 * first.k1; }));
-  runtime.stop();
-  safe.close();
+  ASSERT_TRUE(wait_until([&] { return std::abs(station.view().k1 - first.k1) < 1e-9 * first.k1; }));
+  run.stop();
   // Only previews: the session's version is the fill's.
-  EXPECT_EQ(station.version(), filled.version());
+  EXPECT_EQ(station.version(), s.filled.version());
 }
 
 TEST(Station, SharpEdgeTangentsFollowADragAndAClickConfirms) {
-  TempDir dir;
-  ServerProcess server(dir.path());
-  ASSERT_TRUE(server.start()) << server.log();
-  v1::SessionInfo info;
-  v1::EditResponse filled;
-  ASSERT_NO_FATAL_FAILURE(filled_cube_session(server, v1::PATCH_SHAPE_AUTO, info, filled));
-  app::StationOptions options;
-  options.session_id = info.session_id();
-  options.tool = app::StationTool::SharpEdge;
-  app::Station station(server.connect(), options);
-  ASSERT_TRUE(station.start().is_ok());
-  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
-  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  CubeEdgeStation s;
+  ASSERT_NO_FATAL_FAILURE(
+      start_cube_edge_station(s, v1::PATCH_SHAPE_AUTO, app::StationTool::SharpEdge));
+  app::Station& station = *s.station;
   const Vec3 diagonal = Vec3(1, 0, 1).normalized();
   std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
   for (const double y : {0.5, 1.6, 6.4, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);
@@ -487,31 +504,22 @@ TEST(Station, SharpEdgeTangentsFollowADragAndAClickConfirms) {
   w.push_back({Vec3(8, 4.2, 8) + 1.0 * diagonal, 1.0, 0});
   press_at(w, Vec3(8, 2, 8), diagonal);  // a click: confirm
   w.push_back({Vec3(8, 2, 8) + 2.0 * diagonal, 1.5, 0});
-  device::ReplayDevice device(path(map, workspace, w), "drag");
-  device::SafetyFilter safe(device);
-  ASSERT_TRUE(safe.open().ok);
-  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
-  runtime.start();
-  const auto wait_for = [&](const auto& done, std::chrono::seconds limit) {
-    const auto deadline = std::chrono::steady_clock::now() + limit;
-    while (!done() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(5ms);
-    return done();
-  };
-  ASSERT_TRUE(wait_for([&] { return !station.view().curve.empty(); }, 10s))
+  ReplayedRun run(station, path(s.map, s.workspace, w), s.model, s.workspace);
+  ASSERT_TRUE(run.running());
+  ASSERT_TRUE(wait_until([&] { return !station.view().curve.empty(); }, 10s))
       << station.view().status;
   const app::StationView first = station.view();
   ASSERT_GT(first.k1, 0);
   // The drag: k grows while the button is held; nothing is committed.
-  ASSERT_TRUE(wait_for([&] { return station.view().k1 > 1.5 * first.k1; }, 15s))
+  ASSERT_TRUE(wait_until([&] { return station.view().k1 > 1.5 * first.k1; }, 15s))
       << station.view().status;
-  EXPECT_EQ(station.version(), filled.version());
+  EXPECT_EQ(station.version(), s.filled.version());
   // The click confirms: the snap is the next version.
-  EXPECT_TRUE(wait_for([&] { return station.version() > filled.version(); }, 15s))
+  EXPECT_TRUE(wait_until([&] { return station.version() > s.filled.version(); }, 15s))
       << station.view().status;
   const app::StationView after = station.view();
-  runtime.stop();
-  safe.close();
-  EXPECT_EQ(station.version(), filled.version() + 1) << after.status;
+  run.stop();
+  EXPECT_EQ(station.version(), s.filled.version() + 1) << after.status;
   EXPECT_NE(after.tool.find("sweep to push"), std::string::npos) << after.tool;
   // k1 and k4 were scaled together, by about two (the proxy's path is not the device's exactly).
   EXPECT_NEAR(after.k1 / first.k1, 2.0, 0.3);
@@ -519,35 +527,16 @@ TEST(Station, SharpEdgeTangentsFollowADragAndAClickConfirms) {
 }
 
 TEST(Station, ShowsAnotherClientsSharpEdgePreviewUntilItEnds) {
-  TempDir dir;
-  ServerProcess server(dir.path());
-  ASSERT_TRUE(server.start()) << server.log();
-  v1::SessionInfo info;
-  v1::EditResponse filled;
-  ASSERT_NO_FATAL_FAILURE(filled_cube_session(server, v1::PATCH_SHAPE_FAIR, info, filled));
-  app::StationOptions options;
-  options.session_id = info.session_id();
-  app::Station station(server.connect(), options);
-  ASSERT_TRUE(station.start().is_ok());
-  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
-  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  CubeEdgeStation s;
+  ASSERT_NO_FATAL_FAILURE(start_cube_edge_station(s, v1::PATCH_SHAPE_FAIR, app::StationTool::Fill));
+  app::Station& station = *s.station;
   // The station's tool rests away from the cube while another client drives the tool.
-  device::ReplayDevice device(path(map, workspace, {{Vec3(12, 4, 12), 8.0, 0}}), "rest");
-  device::SafetyFilter safe(device);
-  ASSERT_TRUE(safe.open().ok);
-  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
-  runtime.start();
-  const auto wait_for = [&](const auto& done) {
-    const auto deadline = std::chrono::steady_clock::now() + 10s;
-    while (!done() && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(10ms);
-    return done();
-  };
-  net::RepairClient other(server.connect());
+  ReplayedRun run(station, path(s.map, s.workspace, {{Vec3(12, 4, 12), 8.0, 0}}), s.model,
+                  s.workspace);
+  ASSERT_TRUE(run.running());
+  net::RepairClient other(s.server.connect());
   v1::SharpEdgeRequest request;
-  request.set_session_id(info.session_id());
+  request.set_session_id(s.info.session_id());
   for (const double y : {0.5, 2.0, 6.0, 7.5}) {
     auto* p = request.mutable_begin()->add_points();
     p->set_x(8);
@@ -556,17 +545,15 @@ TEST(Station, ShowsAnotherClientsSharpEdgePreviewUntilItEnds) {
   }
   v1::SharpEdgeResponse response;
   ASSERT_TRUE(other.sharp_edge(request, response).is_ok());
-  EXPECT_TRUE(wait_for([&] { return !station.view().remote_curve.empty(); }));
+  EXPECT_TRUE(wait_until([&] { return !station.view().remote_curve.empty(); }));
   const app::StationView seen = station.view();
   EXPECT_EQ(seen.remote_curve.size(), static_cast<std::size_t>(response.curve_size()));
   EXPECT_EQ(seen.remote_guide.size(), static_cast<std::size_t>(response.guide_size()));
   EXPECT_TRUE(seen.curve.empty());  // not this station's tool
   request.set_cancel(true);
   ASSERT_TRUE(other.sharp_edge(request, response).is_ok());
-  EXPECT_TRUE(wait_for([&] { return station.view().remote_curve.empty(); }));
+  EXPECT_TRUE(wait_until([&] { return station.view().remote_curve.empty(); }));
   EXPECT_TRUE(station.view().remote_guide.empty());
-  runtime.stop();
-  safe.close();
 }
 
 TEST(ClientBinary, DevicesAndUsageErrors) {
@@ -591,6 +578,19 @@ TEST(ClientBinary, DevicesAndUsageErrors) {
           out),
       4)
       << out;
+}
+
+//! Runs touchmend-client on \p session of \p server under Xvfb with \p arguments; its exit code.
+int run_client_under_xvfb(const ServerProcess& server, const std::string& session,
+                          const std::string& arguments, std::string& out) {
+  // Under ASan, Mesa's software driver leaves allocations behind from a module it unloads at
+  // exit (unattributable, so no suppression can name it): leak checking is off for these runs
+  // of the client; every other client run in the tests keeps it.
+  return run(
+      "ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 xvfb-run -a -s '-screen 0 1280x1024x24' " +
+          std::string(TOUCHMEND_CLIENT_PATH) + " --server 127.0.0.1:" +
+          std::to_string(server.port()) + " --session " + session + " " + arguments,
+      out);
 }
 
 TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
@@ -624,16 +624,10 @@ TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
   ASSERT_TRUE(device::write_trajectory(traj, t).ok);
   const auto png = dir.path() / "frame.png";
   std::string out;
-  // Under ASan, Mesa's software driver leaves allocations behind from a module it unloads at
-  // exit (unattributable, so no suppression can name it): leak checking is off for this one
-  // run of the client; every other client run in the tests keeps it.
-  const int rc =
-      run("ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 xvfb-run -a -s '-screen 0 1280x1024x24' " +
-              std::string(TOUCHMEND_CLIENT_PATH) +
-              " --server 127.0.0.1:" + std::to_string(server.port()) + " --session " +
-              info.session_id() + " --device replay:" + traj.string() +
-              " --headless --duration 2 --screenshot " + png.string(),
-          out);
+  const int rc = run_client_under_xvfb(
+      server, info.session_id(),
+      "--device replay:" + traj.string() + " --headless --duration 2 --screenshot " + png.string(),
+      out);
   ASSERT_EQ(rc, 0) << out;
   ASSERT_TRUE(std::filesystem::exists(png)) << out;
   EXPECT_NE(out.find("screenshot"), std::string::npos) << out;
@@ -705,14 +699,10 @@ TEST(ClientBinary, SharpEdgePicksAreDrawnNumberedWithThePreviewedCurveUnderXvfb)
   ASSERT_TRUE(device::write_trajectory(traj, path(map, workspace, w)).ok);
   const auto png = dir.path() / "picks.png";
   std::string out;
-  // Leak checking off for this run only: see ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb.
-  const int rc =
-      run("ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 xvfb-run -a -s '-screen 0 1280x1024x24' " +
-              std::string(TOUCHMEND_CLIENT_PATH) +
-              " --server 127.0.0.1:" + std::to_string(server.port()) + " --session " +
-              info.session_id() + " --tool sharp-edge --device replay:" + traj.string() +
-              " --headless --duration 5 --screenshot " + png.string(),
-          out);
+  const int rc = run_client_under_xvfb(server, info.session_id(),
+                                       "--tool sharp-edge --device replay:" + traj.string() +
+                                           " --headless --duration 5 --screenshot " + png.string(),
+                                       out);
   ASSERT_EQ(rc, 0) << out;
   int width = 0, height = 0;
   const std::vector<std::uint8_t> pixels = read_png(png, width, height);
