@@ -1171,13 +1171,14 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
     }
     if (!target) break;
     // The first push carries a motion of three steps (a client whose pushes were delayed):
-    // three samples; then one sample per push.
-    const v1::SharpEdgeRequest push =
-        sharp_edge_push(info.session_id(), *target, round == 0 ? 0.9 : 0.1, 0.3);
+    // three samples; the second one of a thousand steps: capped at 256 samples; then one
+    // sample per push.
+    const double motion = round == 0 ? 0.9 : (round == 1 ? 300.0 : 0.1);
+    const v1::SharpEdgeRequest push = sharp_edge_push(info.session_id(), *target, motion, 0.3);
     v1::SharpEdgeResponse pushed;
     const Status pushed_status = a.sharp_edge(push, pushed);
     ASSERT_TRUE(pushed_status.is_ok()) << "round " << round << ": " << pushed_status.message;
-    ASSERT_EQ(pushed.push_samples(), round == 0 ? 3u : 1u);
+    ASSERT_EQ(pushed.push_samples(), round == 0 ? 3u : (round == 1 ? 256u : 1u));
     ASSERT_GE(pushed.delta().moved_vertex_ids_size(), 1);
     ASSERT_LE(pushed.delta().moved_vertex_ids_size(), static_cast<int>(pushed.push_samples()));
     ASSERT_TRUE(replica.wait_for_version(pushed.version(), 10s).is_ok());
