@@ -372,6 +372,7 @@ void Station::sharp_edge_press(const Vec3& tool) {
   request.set_session_id(options_.session_id);
   v1::SharpEdgeResponse response;
   if (sharp_phase_ == SharpPhase::Picking) {
+    k_drag_.active = false;  // the press that previews the curve is not a drag on it
     picks_.push_back(tool);
     if (picks_.size() == 4) {
       for (const Vec3& p : picks_) *request.mutable_begin()->add_points() = wire(p);
@@ -550,6 +551,7 @@ void Station::sharp_edge_hold(const Vec3& tool) {
 }
 
 void Station::sharp_edge_second() {
+  k_drag_.active = false;  // button 2 ends any drag (its release neither confirms nor sets k)
   v1::SharpEdgeRequest request;
   request.set_session_id(options_.session_id);
   v1::SharpEdgeResponse response;

@@ -526,6 +526,34 @@ TEST(Station, SharpEdgeTangentsFollowADragAndAClickConfirms) {
   EXPECT_NEAR(after.k4 / first.k4, after.k1 / first.k1, 1e-9);
 }
 
+TEST(Station, SharpEdgeCancelDuringAPressLeavesNoDragBehind) {
+  CubeEdgeStation s;
+  ASSERT_NO_FATAL_FAILURE(
+      start_cube_edge_station(s, v1::PATCH_SHAPE_AUTO, app::StationTool::SharpEdge));
+  app::Station& station = *s.station;
+  const Vec3 diagonal = Vec3(1, 0, 1).normalized();
+  std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
+  for (const double y : {0.5, 1.6, 6.4, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);
+  w.push_back({Vec3(8, 3, 8) + 1.0 * diagonal, 1.0, 0});  // the preview arrives
+  // Press on the curve, then button 2 while button 1 is still held: cancelled; release.
+  w.push_back({Vec3(8, 3, 8) - 0.02 * diagonal, 0.3, 0});
+  w.push_back({Vec3(8, 3, 8) - 0.02 * diagonal, 0.1, 1});
+  w.push_back({Vec3(8, 3, 8) - 0.02 * diagonal, 0.1, 3});
+  w.push_back({Vec3(8, 3, 8) - 0.02 * diagonal, 0.1, 1});
+  w.push_back({Vec3(8, 3, 8) - 0.02 * diagonal, 0.1, 0});
+  // Picks again: the fourth one's release must leave the new curve previewed, not confirm it.
+  for (const double y : {0.5, 1.6, 6.4, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);
+  w.push_back({Vec3(8, 3, 8) + 1.0 * diagonal, 1.0, 0});
+  ASSERT_NO_FATAL_FAILURE(replay(station, path(s.map, s.workspace, w), s.model, s.workspace));
+  const app::StationView after = station.view();
+  EXPECT_EQ(station.version(), s.filled.version()) << after.status;
+  EXPECT_FALSE(after.curve.empty()) << after.status;
+  EXPECT_NE(after.tool.find("click to confirm"), std::string::npos) << after.tool;
+  // Nor did holding that press drag k: the default tangent length of a straight edge is the
+  // chord |P3 - P2| = 4.8.
+  EXPECT_NEAR(after.k1, 4.8, 0.5) << after.status;
+}
+
 TEST(Station, ShowsAnotherClientsSharpEdgePreviewUntilItEnds) {
   CubeEdgeStation s;
   ASSERT_NO_FATAL_FAILURE(start_cube_edge_station(s, v1::PATCH_SHAPE_FAIR, app::StationTool::Fill));
