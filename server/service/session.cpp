@@ -475,6 +475,7 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
           !s.is_ok())
         return s;
       sharp_tool_ = std::move(tool);
+      sharp_tool_principal_ = principal;
       response.set_version(document_.version);
       response.set_summary("sharp-edge tool on a patch of " +
                            std::to_string(sharp_tool_->patch_faces.size()) + " faces");
@@ -553,8 +554,8 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
   return {};
 }
 
-void Session::publish_tool_preview(const std::string& principal,
-                                   const v1::SharpEdgeResponse* preview) {
+v1::SessionEvent Session::tool_preview_event(const std::string& principal,
+                                             const v1::SharpEdgeResponse* preview) const {
   v1::SessionEvent event;
   v1::ToolPreview& tool = *event.mutable_tool_preview();
   tool.set_principal(principal);
@@ -567,7 +568,12 @@ void Session::publish_tool_preview(const std::string& principal,
     tool.set_k4(preview->k4());
     tool.set_snapped(snapped);
   }
-  broadcast(event);
+  return event;
+}
+
+void Session::publish_tool_preview(const std::string& principal,
+                                   const v1::SharpEdgeResponse* preview) {
+  broadcast(tool_preview_event(principal, preview));
 }
 
 bool Session::answered_before(const std::string& request_id, v1::EditResponse& response) {
@@ -687,6 +693,15 @@ Status Session::subscribe(const CallPtr& call, std::uint64_t after_version) {
     return event.SerializeAsString();
   };
   subscribers_[{call->connection_id(), call->id()}] = call;
+  // A client joining while someone's sharp-edge tool is open sees its preview at once.
+  if (sharp_tool_) {
+    v1::SharpEdgeResponse preview;
+    const auto [k1, k4] = sharp_tool_->effective_k();
+    preview.set_k1(k1);
+    preview.set_k4(k4);
+    fill_preview(*sharp_tool_, preview);
+    call->send(tool_preview_event(sharp_tool_principal_, &preview).SerializeAsString());
+  }
   return {};
 }
 

@@ -106,6 +106,8 @@ class Session : public std::enable_shared_from_this<Session> {
   //! Tells every subscriber what the sharp-edge tool shows now (\p preview's curve, guide and
   //! k), or that it ended (nullptr).
   void publish_tool_preview(const std::string& principal, const v1::SharpEdgeResponse* preview);
+  v1::SessionEvent tool_preview_event(const std::string& principal,
+                                      const v1::SharpEdgeResponse* preview) const;
 
   SessionRow row_;
   Store& store_;
@@ -130,6 +132,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void pop_undo();
   void reset_history_extents();
   std::optional<SharpEdgeTool> sharp_tool_;
+  std::string sharp_tool_principal_;  //!< who began the open tool
   std::string mesh_name_;
   std::size_t since_snapshot_ = 0;
   std::size_t delta_bytes_since_snapshot_ = 0;

@@ -1139,6 +1139,20 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   EXPECT_EQ(previews[0].curve_size(), response.curve_size());
   EXPECT_EQ(previews[0].guide_size(), response.guide_size());
   EXPECT_FALSE(previews[0].principal().empty());
+  {  // A client joining now is shown the open tool's preview at once.
+    RepairClient c(server.connect());
+    net::SessionReplica late(c, info.session_id());
+    std::vector<v1::ToolPreview> seen;
+    late.on_tool_preview = [&](const v1::ToolPreview& t) { seen.push_back(t); };
+    ASSERT_TRUE(late.start().is_ok());
+    const auto deadline = std::chrono::steady_clock::now() + 10s;
+    while (seen.empty() && std::chrono::steady_clock::now() < deadline)
+      if (!late.poll(50ms).is_ok()) break;
+    ASSERT_EQ(seen.size(), 1u);
+    EXPECT_TRUE(seen[0].active());
+    EXPECT_EQ(seen[0].curve_size(), response.curve_size());
+    EXPECT_EQ(seen[0].principal(), previews[0].principal());
+  }
   // Live k: a longer start tangent bends the curve away from the edge (preview only).
   request.mutable_adjust()->set_k1(12);
   request.mutable_adjust()->set_k4(0);
