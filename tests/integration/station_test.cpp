@@ -11,6 +11,7 @@
 #include <csignal>
 #include <cstdlib>
 #include <fstream>
+#include <initializer_list>
 #include <iterator>
 #include <limits>
 #include <memory>
@@ -266,6 +267,19 @@ void press_at(std::vector<Waypoint>& w, const Vec3& p, const Vec3& away) {
   w.push_back({p + 1.0 * away, 0.15, 0});
 }
 
+//! Out of the cube [0, 8]³ across its edge x = z = 8 (between the two faces).
+Vec3 out_of_the_edge() {
+  return Vec3(1, 0, 1).normalized();
+}
+
+//! From outside, presses at points of the cube's edge x = z = 8 at heights \p ys (the
+//! sharp-edge picks P1..P4: by default a straight crease with |P3 - P2| = 4.8).
+std::vector<Waypoint> picks_on_the_edge(std::initializer_list<double> ys = {0.5, 1.6, 6.4, 7.5}) {
+  std::vector<Waypoint> w{{Vec3(8, *ys.begin(), 8) + 2.0 * out_of_the_edge(), 0.1, 0}};
+  for (const double y : ys) press_at(w, Vec3(8, y, 8), out_of_the_edge());
+  return w;
+}
+
 //! A session holding the cube [0, 8]³ with a hole across its edge x = z = 8 (around y = 4),
 //! filled with \p shape.
 void filled_cube_session(ServerProcess& server, v1::PatchShape shape, v1::SessionInfo& info,
@@ -415,11 +429,9 @@ TEST(Station, ReplayedSharpEdgePicksPushesAndSmoothsACubeEdge) {
   };
   const double before_gap = nearest_to_edge(station.document());
   ASSERT_GT(before_gap, 0.2);
-  const Vec3 diagonal = Vec3(1, 0, 1).normalized();
-  std::vector<Waypoint> w;
-  w.push_back({Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0});
-  for (const double y : {0.5, 1.6, 6.4, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);  // P1..P4
-  press_at(w, Vec3(8, 0.5, 8), diagonal);                                            // confirm
+  const Vec3 diagonal = out_of_the_edge();
+  std::vector<Waypoint> w = picks_on_the_edge();  // P1..P4
+  press_at(w, Vec3(8, 0.5, 8), diagonal);         // confirm
   // Sweeps: pressed into the patch under the edge, back and forth along it (enough of them for
   // a vertex to reach the edge even when a loaded machine delays the pushes).
   w.push_back({Vec3(8, 2.6, 8) + 1.0 * diagonal, 0.2, 0});
@@ -459,7 +471,7 @@ TEST(Station, SharpEdgeTangentsAdjustLiveWithoutAnEdit) {
   ASSERT_NO_FATAL_FAILURE(
       start_cube_edge_station(s, v1::PATCH_SHAPE_AUTO, app::StationTool::SharpEdge));
   app::Station& station = *s.station;
-  const Vec3 diagonal = Vec3(1, 0, 1).normalized();
+  const Vec3 diagonal = out_of_the_edge();
   std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
   // P1 off the edge's line (a bend), so longer tangents move the curve's middle.
   for (const Vec3& p : {Vec3(8, 0.5, 7.0), Vec3(8, 1.6, 8), Vec3(8, 6.4, 8), Vec3(8, 7.5, 8)})
@@ -491,9 +503,8 @@ TEST(Station, SharpEdgeTangentsFollowADragAndAClickConfirms) {
   ASSERT_NO_FATAL_FAILURE(
       start_cube_edge_station(s, v1::PATCH_SHAPE_AUTO, app::StationTool::SharpEdge));
   app::Station& station = *s.station;
-  const Vec3 diagonal = Vec3(1, 0, 1).normalized();
-  std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
-  for (const double y : {0.5, 1.6, 6.4, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);
+  const Vec3 diagonal = out_of_the_edge();
+  std::vector<Waypoint> w = picks_on_the_edge();
   w.push_back({Vec3(8, 3, 8) + 1.0 * diagonal, 1.0, 0});  // the preview arrives
   // Press on the edge and drag a quarter of the chord |P3 - P2| = 4.8 towards P3: k doubles.
   w.push_back({Vec3(8, 3, 8) - 0.02 * diagonal, 0.3, 0});
@@ -531,9 +542,8 @@ TEST(Station, SharpEdgeCancelDuringAPressLeavesNoDragBehind) {
   ASSERT_NO_FATAL_FAILURE(
       start_cube_edge_station(s, v1::PATCH_SHAPE_AUTO, app::StationTool::SharpEdge));
   app::Station& station = *s.station;
-  const Vec3 diagonal = Vec3(1, 0, 1).normalized();
-  std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
-  for (const double y : {0.5, 1.6, 6.4, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);
+  const Vec3 diagonal = out_of_the_edge();
+  std::vector<Waypoint> w = picks_on_the_edge();
   w.push_back({Vec3(8, 3, 8) + 1.0 * diagonal, 1.0, 0});  // the preview arrives
   // Press on the curve, then button 2 while button 1 is still held: cancelled; release.
   w.push_back({Vec3(8, 3, 8) - 0.02 * diagonal, 0.3, 0});
@@ -542,7 +552,8 @@ TEST(Station, SharpEdgeCancelDuringAPressLeavesNoDragBehind) {
   w.push_back({Vec3(8, 3, 8) - 0.02 * diagonal, 0.1, 1});
   w.push_back({Vec3(8, 3, 8) - 0.02 * diagonal, 0.1, 0});
   // Picks again: the fourth one's release must leave the new curve previewed, not confirm it.
-  for (const double y : {0.5, 1.6, 6.4, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);
+  const std::vector<Waypoint> again = picks_on_the_edge();
+  w.insert(w.end(), again.begin(), again.end());
   w.push_back({Vec3(8, 3, 8) + 1.0 * diagonal, 1.0, 0});
   ASSERT_NO_FATAL_FAILURE(replay(station, path(s.map, s.workspace, w), s.model, s.workspace));
   const app::StationView after = station.view();
@@ -717,12 +728,10 @@ TEST(ClientBinary, SharpEdgePicksAreDrawnNumberedWithThePreviewedCurveUnderXvfb)
   const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
                                       Eigen::Vector3d::Constant(0.1));
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
-  const Vec3 diagonal = Vec3(1, 0, 1).normalized();
   // Four picks along the edge x = z = 8, then the tool parks far outside (out of the picture's
   // colours' way) while the preview is drawn.
-  std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
-  for (const double y : {0.5, 2.5, 5.5, 7.5}) press_at(w, Vec3(8, y, 8), diagonal);
-  w.push_back({Vec3(8, 4, 8) + 6.0 * diagonal, 0.3, 0});
+  std::vector<Waypoint> w = picks_on_the_edge({0.5, 2.5, 5.5, 7.5});
+  w.push_back({Vec3(8, 4, 8) + 6.0 * out_of_the_edge(), 0.3, 0});
   const auto traj = dir.path() / "picks.traj";
   ASSERT_TRUE(device::write_trajectory(traj, path(map, workspace, w)).ok);
   const auto png = dir.path() / "picks.png";
