@@ -398,7 +398,7 @@ void Viewer::draw(const Scene& scene) {
     draw_text(label.text, clip.x() / clip.w() + 10 * px_x, clip.y() / clip.w() + 10 * px_y,
               label.height_px, label.colour);
   }
-  if (options_.status_in_view && !scene.status.empty()) {
+  if (!scene.status.empty()) {
     const float text_px = 12, line_px = 18;
     const std::size_t columns = static_cast<std::size_t>(
         std::max(8.0f, (float(width) - 16) / (text_px / kGlyphHeight * kGlyphAdvance)));

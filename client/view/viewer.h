@@ -61,8 +61,7 @@ struct ViewerOptions {
   int width = 960;
   int height = 720;
   bool visible = true;
-  bool keep_frames = false;    //!< read each frame back (for screenshots and tests)
-  bool status_in_view = true;  //!< draw the status line in the frame (it is also the title)
+  bool keep_frames = false;  //!< read each frame back (for screenshots and tests)
   std::string title = "touchmend";
 };
 

@@ -979,7 +979,6 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_push(const rpc::MeshDoc
     tool.moved.insert(id);
   }
   report.samples = static_cast<std::uint32_t>(samples);
-  report.vertices = static_cast<std::uint32_t>(moved.size());
   outcome.delta = move_delta(document, moved);
   pending_vertex_map_.clear();
   pending_face_map_.clear();

@@ -145,9 +145,8 @@ class SessionGeometry {
   //! One push request: the motion from previous to proxy is cut into tool samples of one step
   //! (at most kMaxSamplesPerPush), each an Algorithm VI push.
   struct PushReport {
-    bool at_limit = false;       //!< the last sample's vertex reached its limit
-    std::uint32_t samples = 0;   //!< tool samples applied
-    std::uint32_t vertices = 0;  //!< distinct vertices moved
+    bool at_limit = false;      //!< the last sample's vertex reached its limit
+    std::uint32_t samples = 0;  //!< tool samples applied
   };
   FillOutcome sharp_edge_push(const rpc::MeshDocument& document, SharpEdgeTool& tool,
                               const v1::SharpEdgePush& push, PushReport& report);
