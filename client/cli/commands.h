@@ -51,7 +51,7 @@ struct FillArgs {
   std::size_t max_boundary = 0;
   int refine_iterations = 3;
   std::string shape = "auto";
-  std::string sharp = "off";  //!< off | auto: retain the creases that cross each hole
+  std::string sharp = "auto";  //!< auto | off: retain the creases that cross each hole
   double crease_angle = 50;   //!< dihedral angle (degrees) above which an edge is a crease
   bool json = false;
   bool binary = false;

@@ -87,15 +87,17 @@ int main(int argc, char** argv) {
       ->add_option(
           "--shape", fill.shape,
           "flat: keep the refined triangulation; fair: bi-Laplacian fairing that continues\n"
-          "the surrounding surface; auto: flat where the surroundings are planar, else fair")
+          "the surrounding surface; auto: flat where the surroundings are planar or\n"
+          "piecewise planar along creases (CAD), else fair (the report says why)")
       ->check(CLI::IsMember({"flat", "fair", "auto"}))
       ->capture_default_str();
   fill_cmd
       ->add_option(
           "--sharp", fill.sharp,
-          "auto: find the creases (sharp edges) that cross each hole, pair them into\n"
-          "Hermite curves or extend three or more to a common corner, and fill the hole\n"
-          "split along those curves, so the creases run through the patch; off: plain fill")
+          "auto (default): find the creases (sharp edges) that cross each hole, pair them\n"
+          "into Hermite curves or extend three or more to a common corner, and fill the\n"
+          "hole split along those curves, so the creases run through the patch (holes no\n"
+          "crease crosses get the plain fill); off: plain fill everywhere")
       ->check(CLI::IsMember({"off", "auto"}))
       ->capture_default_str();
   fill_cmd

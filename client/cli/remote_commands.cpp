@@ -109,7 +109,9 @@ bool make_selection(const FillArgs& args, v1::HoleSelection& selection, v1::Fill
   }
   if (args.sharp == "auto")
     options.set_sharp(v1::SHARP_AUTO);
-  else if (args.sharp != "off") {
+  else if (args.sharp == "off")
+    options.set_sharp(v1::SHARP_OFF);
+  else {
     err << "error: --sharp must be off or auto\n";
     return false;
   }

@@ -193,6 +193,14 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
   return out;
 }
 
+double max_displacement(const Mesh& mesh, const std::vector<VertexHandle>& vertices,
+                        const std::vector<Vec3>& before) {
+  double worst = 0;
+  for (std::size_t i = 0; i < vertices.size(); ++i)
+    worst = std::max(worst, (mesh.point(vertices[i]) - before[i]).norm());
+  return worst;
+}
+
 void remove_patch(Mesh& mesh, const std::vector<FaceHandle>& faces,
                   const std::vector<VertexHandle>& vertices) {
   for (const FaceHandle f : faces)
@@ -245,9 +253,55 @@ bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch,
 
 struct ShapeDecision {
   PatchShape shape = PatchShape::Fair;
-  bool feature = false;  //!< creases meet the boundary: follow them with the 3D triangulation
+  //! Shape of the regions of a hole split along crease curves: flat on planar or piecewise
+  //! planar surroundings, faired on curved ones.
+  PatchShape crease_regions = PatchShape::Flat;
+  //! Creases meet the boundary: triangulate with the minimum-dihedral 3D triangulation first,
+  //! which follows them (kept flat on piecewise-planar surroundings, faired otherwise).
+  bool feature = false;
   std::string reason;
 };
+
+double dihedral_deg(const Mesh& mesh, EdgeHandle e) {
+  const Vec3 a = mesh.calc_face_normal(mesh.face_handle(mesh.halfedge_handle(e, 0)));
+  const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.halfedge_handle(e, 1)));
+  return std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) * 180.0 / std::numbers::pi;
+}
+
+//! Median dihedral angle (degrees) of the edges within two rings of the hole's boundary. A CAD
+//! part's neighbourhood is mostly exactly coplanar pairs (median ~0), a scanned or organic
+//! surface bends a little at every edge (median of several degrees on the shared cases).
+double median_dihedral_near(const Mesh& mesh, const Hole& hole) {
+  std::vector<VertexHandle> ring(hole.loop.begin(), hole.loop.end());
+  std::vector<char> seen_vertex(mesh.n_vertices(), 0);
+  for (const VertexHandle v : ring) seen_vertex[static_cast<std::size_t>(v.idx())] = 1;
+  std::size_t begin = 0;
+  for (int r = 0; r < 2; ++r) {
+    const std::size_t end = ring.size();
+    for (std::size_t i = begin; i < end; ++i)
+      for (const VertexHandle w : mesh.vv_range(ring[i])) {
+        char& s = seen_vertex[static_cast<std::size_t>(w.idx())];
+        if (s) continue;
+        s = 1;
+        ring.push_back(w);
+      }
+    begin = end;
+  }
+  std::vector<double> angles;
+  std::vector<char> seen_edge(mesh.n_edges(), 0);
+  for (const VertexHandle v : ring)
+    for (const HalfedgeHandle h : mesh.voh_range(v)) {
+      const EdgeHandle e = mesh.edge_handle(h);
+      char& s = seen_edge[static_cast<std::size_t>(e.idx())];
+      if (s || mesh.is_boundary(e)) continue;
+      s = 1;
+      angles.push_back(dihedral_deg(mesh, e));
+    }
+  if (angles.empty()) return 0.0;
+  const auto mid = angles.begin() + static_cast<std::ptrdiff_t>(angles.size() / 2);
+  std::nth_element(angles.begin(), mid, angles.end());
+  return *mid;
+}
 
 //! Auto shape (ALGORITHMS.md §2.5 and BASELINE.md's observations): fairing wins on smooth
 //! surfaces but bulges planar holes and balloons next to creases; a triangulation that
@@ -255,8 +309,10 @@ struct ShapeDecision {
 //!  - planar: the boundary lies in a plane and every triangle around it is parallel to it
 //!    -> Algorithms I-III, flat (exact);
 //!  - feature: sharp edges (dihedral above the feature angle) touch the boundary at two or
-//!    more places (a crease enters and leaves, or a corner) -> minimum-dihedral triangulation,
-//!    kept flat;
+//!    more places (a crease enters and leaves, or a corner) -> the minimum-dihedral
+//!    triangulation, which follows them; kept flat where the surroundings are piecewise
+//!    planar (a CAD part), faired where they are curved (a coarse scan whose large bends are
+//!    not creases: flat there leaves the patch short of the surface);
 //!  - otherwise smooth -> bi-Laplacian fairing.
 ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions& options) {
   ShapeDecision d;
@@ -279,10 +335,7 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
     }
     for (const HalfedgeHandle h : mesh.voh_range(v)) {
       if (mesh.is_boundary(mesh.edge_handle(h))) continue;
-      const Vec3 a = mesh.calc_face_normal(mesh.face_handle(h));
-      const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
-      dihedrals.push_back(std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) * 180.0 /
-                          std::numbers::pi);
+      dihedrals.push_back(dihedral_deg(mesh, mesh.edge_handle(h)));
     }
   }
   std::size_t sharp_edges = 0;
@@ -298,15 +351,29 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
   const double planarity = hole.planarity / size;
   if (max_dev_deg <= options.flat_max_normal_deviation_deg && planarity <= 0.01) {
     d.shape = PatchShape::Flat;
+    d.crease_regions = PatchShape::Flat;
     d.reason = fmt::format(
         "planar surroundings (neighbour normals within {:.1f} deg of the hole plane)", max_dev_deg);
     return d;
   }
+  const double median = median_dihedral_near(mesh, hole);
+  const bool piecewise_planar = median < options.piecewise_planar_median_deg;
+  d.crease_regions = piecewise_planar ? PatchShape::Flat : PatchShape::Fair;
   if (sharp_edges >= 2) {
-    d.shape = PatchShape::Flat;
     d.feature = true;
-    d.reason = fmt::format("{} sharp edges (over {:.0f} deg) meet the boundary: follow the creases",
-                           sharp_edges, options.feature_angle_deg);
+    if (piecewise_planar) {
+      d.shape = PatchShape::Flat;
+      d.reason = fmt::format(
+          "{} sharp edges (over {:.0f} deg) meet the boundary of piecewise-planar surroundings "
+          "(median dihedral {:.2f} deg): follow the creases, flat",
+          sharp_edges, options.feature_angle_deg, median);
+    } else {
+      d.shape = PatchShape::Fair;
+      d.reason = fmt::format(
+          "{} sharp edges (over {:.0f} deg) meet the boundary of a curved surface (median "
+          "dihedral {:.1f} deg): follow the bends, faired",
+          sharp_edges, options.feature_angle_deg, median);
+    }
     return d;
   }
   d.shape = PatchShape::Fair;
@@ -379,12 +446,12 @@ namespace {
 void refine_and_shape_pieces(Mesh& mesh, std::size_t pieces, std::vector<FaceHandle>& faces,
                              const std::vector<int>& face_pieces,
                              std::vector<VertexHandle>& vertices, std::vector<Vec3>& flat_positions,
-                             const FillOptions& options, HoleFillReport& report) {
+                             bool fair, const Hole& hole, const FillOptions& options,
+                             HoleFillReport& report) {
   std::vector<std::vector<FaceHandle>> piece_faces(pieces);
   for (std::size_t i = 0; i < faces.size(); ++i)
     piece_faces[static_cast<std::size_t>(face_pieces[i])].push_back(faces[i]);
   std::vector<std::vector<VertexHandle>> piece_vertices(pieces);
-  const bool fair = options.creases.fair_pieces;
   if (options.refine_iterations > 0) {
     RefinementOptions ro;
     ro.max_rounds = options.refine_iterations;
@@ -421,6 +488,17 @@ void refine_and_shape_pieces(Mesh& mesh, std::size_t pieces, std::vector<FaceHan
       report.warnings.push_back("fairing a region failed (" + fr.failure + "); it stays flat");
     }
   }
+  const double bulge = max_displacement(mesh, vertices, flat_positions) /
+                       std::max(hole.perimeter / (2 * std::numbers::pi), 1e-300);
+  if (bulge > options.max_fair_bulge) {
+    for (std::size_t i = 0; i < vertices.size(); ++i)
+      mesh.set_point(vertices[i], flat_positions[i]);
+    report.warnings.push_back(fmt::format(
+        "the faired regions rose {:.2f} hole radii off the spanning triangulation (a balloon, "
+        "limit {:.2f}); they stay flat",
+        bulge, options.max_fair_bulge));
+    return;
+  }
   if (all_ok) report.shape = PatchShape::Fair;
 }
 
@@ -451,6 +529,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     decision = decide_shape(mesh, hole, options);
   } else {
     decision.shape = options.shape;
+    decision.crease_regions = options.shape;
     decision.reason = "requested";
   }
   const PatchShape shape = decision.shape;
@@ -503,8 +582,10 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     attempt.angles_closed = patch.angles_closed;
     std::vector<Vec3> flat_positions;
     if (method == FillMethod::CreaseSplit) {
+      const bool fair_pieces =
+          options.creases.fair_pieces.value_or(decision.crease_regions == PatchShape::Fair);
       refine_and_shape_pieces(mesh, patch.pieces, faces, face_pieces, vertices, flat_positions,
-                              options, attempt);
+                              fair_pieces, hole, options, attempt);
       attempt.crease_curves = creases->curves.size();
       attempt.shape_reason =
           fmt::format("split along {} crease curve{} ({})", creases->curves.size(),
@@ -527,7 +608,17 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         } else {
           for (const VertexHandle v : vertices) flat_positions.push_back(mesh.point(v));
           const FairingReport fr = fair_vertices(mesh, vertices, options.fairing);
-          if (fr.ok) {
+          const double bulge = fr.ok ? max_displacement(mesh, vertices, flat_positions) /
+                                           std::max(hole.perimeter / (2 * std::numbers::pi), 1e-300)
+                                     : 0.0;
+          if (fr.ok && bulge > options.max_fair_bulge) {
+            for (std::size_t i = 0; i < vertices.size(); ++i)
+              mesh.set_point(vertices[i], flat_positions[i]);
+            attempt.warnings.push_back(fmt::format(
+                "the faired patch rose {:.2f} hole radii off the spanning triangulation (a "
+                "balloon, limit {:.2f}); it stays flat",
+                bulge, options.max_fair_bulge));
+          } else if (fr.ok) {
             attempt.shape = PatchShape::Fair;
           } else {
             attempt.warnings.push_back("fairing failed (" + fr.failure + "); the patch stays flat");

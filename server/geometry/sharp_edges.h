@@ -44,9 +44,10 @@ struct CreaseOptions {
   double fit_length = 0.5;
   HermiteOptions hermite;
   //! Fair each region between the curves on its own (bi-Laplacian, the other regions treated
-  //! as absent; a patch that would then intersect the mesh stays flat). Off by default: flat
-  //! regions keep the creases closer on the *_sharp cases (README "Sharp edges").
-  bool fair_pieces = false;
+  //! as absent; a patch that would then intersect the mesh stays flat), or keep it flat. Unset:
+  //! as the fill's shape says, and with the auto shape flat on piecewise-planar surroundings
+  //! (a CAD part) and faired on curved ones (a scanned part; README "Sharp edges").
+  std::optional<bool> fair_pieces;
 };
 
 //! Where a crease of the surrounding surface meets the hole boundary.

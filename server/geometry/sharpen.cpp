@@ -132,7 +132,11 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
     return result;
   }
   result.points = p;
-  result.fill = fill_hole(mesh, hole, options.fill);
+  // The picks define the crease: the first fill must not split the hole along creases it
+  // finds itself, or the curve would already be in the patch with nothing left to push.
+  FillOptions plain = options.fill;
+  plain.sharp = SharpMode::Off;
+  result.fill = fill_hole(mesh, hole, plain);
   if (!result.fill.filled) {
     result.failure = "the hole could not be filled: " + result.fill.reason;
     return result;

@@ -25,7 +25,9 @@ struct SharpenOptions {
   //! it never folds the patch (README "Sharp edges"). PushDown is the thesis' tool.
   SharpenMethod method = SharpenMethod::Split;
   HermiteOptions hermite;
-  FillOptions fill;  //!< how the hole itself is filled first
+  //! How the hole itself is filled first (push-down: always without automatic crease
+  //! retaining, whatever `fill.sharp` says, since the picks define the crease).
+  FillOptions fill;
   SnapOptions snap;
   double depth = 0;    //!< push past the curve by this much (push-down variant)
   bool smooth = true;  //!< Algorithm VII after the push

@@ -94,7 +94,7 @@ geometry::FillOptions to_fill_options(const v1::FillOptions& options) {
       o.shape = geometry::PatchShape::Auto;
       break;
   }
-  if (options.sharp() == v1::SHARP_AUTO) o.sharp = geometry::SharpMode::Auto;
+  o.sharp = options.sharp() == v1::SHARP_OFF ? geometry::SharpMode::Off : geometry::SharpMode::Auto;
   if (options.crease_angle_deg() > 0 && options.crease_angle_deg() < 180) {
     o.creases.crease_angle_deg = options.crease_angle_deg();
     o.creases.partner_angle_deg = std::min(o.creases.partner_angle_deg, options.crease_angle_deg());

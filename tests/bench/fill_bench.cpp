@@ -97,6 +97,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 2));
   app.add_option("--feature-angle", feature_angle, "touchmend auto-shape crease angle (degrees)");
   std::string method;
+  std::string sharp = "auto";
+  app.add_option("--sharp", sharp, "touchmend --sharp (crease retaining)")
+      ->check(CLI::IsMember({"off", "auto"}));
   app.add_option("--refine-iterations", refine, "touchmend refinement rounds")
       ->check(CLI::Range(0, 10));
   app.add_option("--method", method,
@@ -106,6 +109,7 @@ int main(int argc, char** argv) {
 
   geo::FillOptions options;
   geo::parse_patch_shape(shape, options.shape);
+  geo::parse_sharp_mode(sharp, options.sharp);
   options.refine_iterations = refine;
   if (feature_angle > 0) options.feature_angle_deg = feature_angle;
   options.fairing.weights =

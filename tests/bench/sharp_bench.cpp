@@ -43,10 +43,13 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   std::vector<Variant> variants;
-  variants.push_back({"fill (auto shape)", {}});
+  geo::FillOptions plain;
+  plain.sharp = geo::SharpMode::Off;
+  variants.push_back({"fill --sharp off (auto shape)", plain});
   geo::FillOptions split;
   split.sharp = geo::SharpMode::Auto;
   split.creases.crease_angle_deg = crease_angle;
+  variants.push_back({"sharp auto (default): split, regions by auto shape", split});
   split.creases.fair_pieces = false;
   variants.push_back({"sharp auto: split, flat regions", split});
   split.creases.fair_pieces = true;

@@ -1102,11 +1102,12 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
     return previews.size() >= count;
   };
   ASSERT_TRUE(replica.start().is_ok());
-  // A faired fill rounds the edge off.
+  // A faired fill without crease retaining rounds the edge off.
   v1::FillHolesRequest fill;
   fill.set_session_id(info.session_id());
   fill.mutable_selection()->set_all(true);
   fill.mutable_options()->set_shape(v1::PATCH_SHAPE_FAIR);
+  fill.mutable_options()->set_sharp(v1::SHARP_OFF);
   v1::EditResponse filled;
   ASSERT_TRUE(a.fill_holes(fill, filled).is_ok());
 

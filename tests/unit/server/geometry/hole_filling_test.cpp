@@ -109,7 +109,9 @@ TEST(FillHole, HoleOnASphereIsFairedBackOntoIt) {
 
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
   const MeshSoup s = testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2);
-  const FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
+  FillOptions plain;  // without crease retaining: the auto shape alone
+  plain.sharp = SharpMode::Off;
+  const FillRun run = fill_and_check(s, plain, [](const Hole&) { return true; });
   ASSERT_EQ(run.reports.size(), 1u);
   const HoleFillReport& r = run.reports[0];
   ASSERT_TRUE(r.filled) << r.reason;
@@ -124,6 +126,20 @@ TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
     }
     EXPECT_LT(std::min(8 - p[0], 8 - p[2]), 1.0);
   }
+}
+
+TEST(FillHole, DefaultFillKeepsTheCubeEdgeThroughTheHole) {
+  // Crease retaining is on by default: the two ends of the edge x = z = 8 that cross the hole
+  // are paired and the hole is filled split along the edge, so the edge is in the patch.
+  const MeshSoup s = testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2);
+  const FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.crease_curves, 1u);
+  const std::array<std::array<Vec3, 2>, 1> edge{{{Vec3(8, 2.2, 8), Vec3(8, 5.8, 8)}}};
+  EXPECT_LT(segment_distance(edge, face_triangles(run.mesh, r.new_faces), 0.01).max, 1e-9);
 }
 
 TEST(FillHole, HoleWrapping270DegreesAroundACylinderGoesPiecewise) {
