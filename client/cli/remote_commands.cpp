@@ -142,6 +142,7 @@ nlohmann::json fill_json(const v1::HoleFillResult& r) {
           {"shape_reason", r.shape_reason()},
           {"faces_added", r.faces_added()},
           {"vertices_added", r.vertices_added()},
+          {"min_angle_deg", r.min_angle_deg()},
           {"seconds", r.seconds()}};
 }
 
@@ -150,9 +151,9 @@ std::string fill_line(const v1::HoleFillResult& r) {
   if (!r.filled()) return fmt::format("hole {:>6}: LEFT OPEN: {}\n", r.hole_id(), r.reason());
   return fmt::format(
       "hole {:>6}: filled, {} boundary edges, method {}, shape {} ({}), {} faces and {} vertices "
-      "added, {:.2f} ms\n",
+      "added, smallest angle {:.1f} deg, {:.2f} ms\n",
       r.hole_id(), r.boundary_vertices(), r.method(), r.shape(), r.shape_reason(), r.faces_added(),
-      r.vertices_added(), r.seconds() * 1e3);
+      r.vertices_added(), r.min_angle_deg(), r.seconds() * 1e3);
 }
 
 void print_fill_report(const v1::FillReport& report, bool json, const nlohmann::json& extra,

@@ -84,6 +84,7 @@ nlohmann::json to_json(const geometry::HoleFillReport& r) {
   j["flips"] = r.flips;
   j["faces_added"] = r.faces_added;
   j["vertices_added"] = r.vertices_added;
+  j["min_angle_deg"] = r.min_angle_deg;
   if (!r.warnings.empty()) j["warnings"] = r.warnings;
   return j;
 }
@@ -132,10 +133,10 @@ std::string fill_text(const geometry::HoleFillReport& r) {
   if (!r.filled) return fmt::format("hole {:>6}: LEFT OPEN: {}\n", r.hole_id, r.reason);
   std::string out = fmt::format(
       "hole {:>6}: filled, {} boundary edges, method {}, shape {} ({}), {} faces and {} vertices "
-      "added, "
-      "{} refinement rounds, {:.2f} ms\n",
+      "added, smallest angle {:.1f} deg, {} refinement rounds, {:.2f} ms\n",
       r.hole_id, r.boundary_vertices, geometry::to_string(r.method), geometry::to_string(r.shape),
-      r.shape_reason, r.faces_added, r.vertices_added, r.refinement_rounds, r.seconds * 1e3);
+      r.shape_reason, r.faces_added, r.vertices_added, r.min_angle_deg, r.refinement_rounds,
+      r.seconds * 1e3);
   if (!r.creases.empty() && r.crease_curves == 0)
     out += fmt::format("             sharp edges: {} (none retained)\n", r.creases);
   for (const std::string& w : r.warnings) out += fmt::format("             warning: {}\n", w);

@@ -439,18 +439,25 @@ bool parse_sharp_mode(std::string_view text, SharpMode& mode) {
 
 namespace {
 
-//! CreaseSplit: each region between the crease curves is refined on its own (so no flip crosses
-//! a curve) and, when asked, faired on its own with the other regions treated as absent (so the
-//! bi-Laplacian does not round the crease off). \p flat_positions receives the positions of
-//! \p vertices before fairing.
-void refine_and_shape_pieces(Mesh& mesh, std::size_t pieces, std::vector<FaceHandle>& faces,
-                             const std::vector<int>& face_pieces,
-                             std::vector<VertexHandle>& vertices, std::vector<Vec3>& flat_positions,
-                             bool fair, const Hole& hole, const FillOptions& options,
-                             HoleFillReport& report) {
+//! Refines the inserted patch, mends its triangles (patch_quality.h) and gives it its shape.
+//! A hole split along crease curves is worked region by region (\p face_pieces; one region
+//! otherwise), so no flip crosses a curve and each region is faired on its own with the others
+//! treated as absent (the bi-Laplacian does not round the crease off).
+//!  - flat: refinement and mending only flip and move within coplanar triangles, so the
+//!    spanning triangulation's surface is kept exactly;
+//!  - faired: fair, mend the faired triangles (3D flips, tangential moves, bisections), then
+//!    fair again with the mended connectivity.
+//! Returns why the faired shape was refused (a balloon, a singular system), or an empty string.
+std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHandle>& faces,
+                                std::vector<VertexHandle>& vertices,
+                                const std::vector<int>& face_pieces, std::size_t pieces, bool fair,
+                                bool fallback, const FillOptions& options, HoleFillReport& report) {
+  pieces = std::max<std::size_t>(pieces, 1);
   std::vector<std::vector<FaceHandle>> piece_faces(pieces);
-  for (std::size_t i = 0; i < faces.size(); ++i)
-    piece_faces[static_cast<std::size_t>(face_pieces[i])].push_back(faces[i]);
+  for (std::size_t i = 0; i < faces.size(); ++i) {
+    const std::size_t p = i < face_pieces.size() ? static_cast<std::size_t>(face_pieces[i]) : 0;
+    piece_faces[std::min(p, pieces - 1)].push_back(faces[i]);
+  }
   std::vector<std::vector<VertexHandle>> piece_vertices(pieces);
   if (options.refine_iterations > 0) {
     RefinementOptions ro;
@@ -464,42 +471,121 @@ void refine_and_shape_pieces(Mesh& mesh, std::size_t pieces, std::vector<FaceHan
       report.flips += rr.flips;
     }
   }
-  faces.clear();
-  for (const auto& list : piece_faces) faces.insert(faces.end(), list.begin(), list.end());
-  for (const auto& list : piece_vertices) vertices.insert(vertices.end(), list.begin(), list.end());
-  report.shape = PatchShape::Flat;
-  if (!fair) return;
-  for (const VertexHandle v : vertices) flat_positions.push_back(mesh.point(v));
-  std::vector<int> piece_of(mesh.n_faces(), -1);
-  for (std::size_t p = 0; p < pieces; ++p)
-    for (const FaceHandle f : piece_faces[p])
-      piece_of[static_cast<std::size_t>(f.idx())] = static_cast<int>(p);
-  bool all_ok = true;
-  for (std::size_t p = 0; p < pieces; ++p) {
-    if (piece_vertices[p].empty()) continue;
-    FairingOptions fo = options.fairing;
-    fo.ignore_face = [&piece_of, p](FaceHandle f) {
-      const int q = piece_of[static_cast<std::size_t>(f.idx())];
-      return q >= 0 && q != static_cast<int>(p);
-    };
-    const FairingReport fr = fair_vertices(mesh, piece_vertices[p], fo);
-    if (!fr.ok) {
-      all_ok = false;
-      report.warnings.push_back("fairing a region failed (" + fr.failure + "); it stays flat");
+  // Vertices that were new before the refinement (chord and curve samples) stay in `vertices`.
+  const auto gather = [&] {
+    faces.clear();
+    for (const auto& list : piece_faces) faces.insert(faces.end(), list.begin(), list.end());
+    for (const auto& list : piece_vertices)
+      vertices.insert(vertices.end(), list.begin(), list.end());
+    for (auto& list : piece_vertices) list.clear();
+  };
+  const auto mend = [&](bool keep_surface) {
+    if (!options.improve_quality) return;
+    PatchQualityOptions quality = options.quality;
+    quality.keep_surface = keep_surface;
+    // A flat patch's positions are final: moving a vertex straight to where its worst triangle
+    // is equilateral is safe there (in its plane); before fairing, fairing places it anyway.
+    quality.apex_moves = keep_surface;
+    // A flat patch standing in for a refused faired one is a guess at a curved surface, not a
+    // CAD face to keep exactly: its folds may be mended like a faired patch's.
+    if (keep_surface && fallback) {
+      quality.flat_fold_deg = quality.max_turn_deg;
+      quality.flat_flip_tolerance = 0.1;
     }
+    for (std::size_t p = 0; p < pieces; ++p)
+      improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], quality);
+  };
+  report.shape = PatchShape::Flat;
+  if (!fair) {
+    mend(/*keep_surface=*/true);
+    gather();
+    return {};
   }
+  // Each region's free vertices are those whose faces all lie in it: the new vertices inside
+  // it (a vertex on a curve borders two regions and stays where the split put it).
+  std::vector<int> piece_of;
+  const auto index_pieces = [&] {
+    piece_of.assign(mesh.n_faces(), -1);
+    for (std::size_t q = 0; q < pieces; ++q)
+      for (const FaceHandle f : piece_faces[q])
+        piece_of[static_cast<std::size_t>(f.idx())] = static_cast<int>(q);
+  };
+  const auto free_vertices_of = [&](std::size_t p) {
+    std::vector<VertexHandle> out;
+    std::vector<char> seen(mesh.n_vertices(), 0);
+    for (const FaceHandle f : piece_faces[p])
+      for (const VertexHandle v : mesh.fv_range(f)) {
+        char& s = seen[static_cast<std::size_t>(v.idx())];
+        if (s) continue;
+        s = 1;
+        if (mesh.is_boundary(v)) continue;
+        bool inside = true;
+        for (const FaceHandle g : mesh.vf_range(v))
+          inside = inside && piece_of[static_cast<std::size_t>(g.idx())] == static_cast<int>(p);
+        if (inside) out.push_back(v);
+      }
+    return out;
+  };
+  const auto fair_all = [&]() -> std::string {
+    index_pieces();
+    for (std::size_t p = 0; p < pieces; ++p) {
+      const std::vector<VertexHandle> free = free_vertices_of(p);
+      if (free.empty()) continue;
+      FairingOptions fo = options.fairing;
+      if (pieces > 1)
+        fo.ignore_face = [&piece_of, p](FaceHandle f) {
+          const auto i = static_cast<std::size_t>(f.idx());
+          return i < piece_of.size() && piece_of[i] >= 0 && piece_of[i] != static_cast<int>(p);
+        };
+      const FairingReport fr = fair_vertices(mesh, free, fo);
+      if (!fr.ok) return "fairing failed (" + fr.failure + ")";
+    }
+    return {};
+  };
+  gather();
+  if (vertices.empty()) return "no interior vertices to fair";
+  std::vector<Vec3> flat_positions;
+  for (const VertexHandle v : vertices) flat_positions.push_back(mesh.point(v));
+  if (std::string failed = fair_all(); !failed.empty()) return failed;
   const double bulge = max_displacement(mesh, vertices, flat_positions) /
                        std::max(hole.perimeter / (2 * std::numbers::pi), 1e-300);
-  if (bulge > options.max_fair_bulge) {
-    for (std::size_t i = 0; i < vertices.size(); ++i)
-      mesh.set_point(vertices[i], flat_positions[i]);
-    report.warnings.push_back(fmt::format(
-        "the faired regions rose {:.2f} hole radii off the spanning triangulation (a balloon, "
-        "limit {:.2f}); they stay flat",
-        bulge, options.max_fair_bulge));
-    return;
+  if (bulge > options.max_fair_bulge)
+    return fmt::format(
+        "the faired patch rose {:.2f} hole radii off the spanning triangulation (a balloon, "
+        "limit {:.2f})",
+        bulge, options.max_fair_bulge);
+  if (options.improve_quality) {
+    mend(/*keep_surface=*/false);  // piece_faces still hold each region's faces
+    // Fair again on the mended triangles (a better discretisation of the same surface); if
+    // that folds a triangle (the second system's weights come from the mended shapes), keep
+    // the mended positions, which lie on the first faired surface.
+    std::vector<VertexHandle> mended_vertices = vertices;
+    for (const auto& list : piece_vertices)
+      mended_vertices.insert(mended_vertices.end(), list.begin(), list.end());
+    std::vector<Vec3> mended;
+    for (const VertexHandle v : mended_vertices) mended.push_back(mesh.point(v));
+    std::vector<FaceHandle> mended_faces;
+    for (const auto& list : piece_faces)
+      mended_faces.insert(mended_faces.end(), list.begin(), list.end());
+    const double mended_min_angle = min_angle_deg(mesh, mended_faces);
+    if (!fair_all().empty() || min_angle_deg(mesh, mended_faces) < 0.5 * mended_min_angle)
+      for (std::size_t i = 0; i < mended_vertices.size(); ++i)
+        mesh.set_point(mended_vertices[i], mended[i]);
+    // Fairing places the vertices by the connectivity alone, and may pull a vertex next to the
+    // boundary: settle the faired triangles by flips and small moves in the tangent plane
+    // (no second fairing, so these stay within a fraction of an edge of the faired surface).
+    PatchQualityOptions settle = options.quality;
+    settle.keep_surface = false;
+    settle.bisect = false;
+    settle.max_rounds = 2;
+    settle.max_turn_deg = 30.0;
+    settle.apex_moves = true;
+    for (std::size_t p = 0; p < pieces; ++p)
+      improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], settle);
+    gather();
   }
-  if (all_ok) report.shape = PatchShape::Fair;
+  report.shape = PatchShape::Fair;
+  return {};
 }
 
 //! fill_hole with the mesh's longest edge cached across holes (0: not known yet).
@@ -556,115 +642,111 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     methods.insert(methods.begin(), FillMethod::CreaseSplit);
 
   std::vector<std::string> failures;
-  for (const FillMethod method : methods) {
-    if (method == FillMethod::MinimumWeight3d && hole.loop.size() > options.max_dp_vertices) {
-      failures.push_back(fmt::format("{}: {} boundary vertices exceed its limit of {}",
-                                     to_string(method), hole.loop.size(), options.max_dp_vertices));
-      continue;
-    }
-    TopologyPatch patch =
-        triangulate(method, mesh, hole, loop, options, longest_edge, creases ? &*creases : nullptr);
-    if (!patch.ok) {
-      failures.push_back(fmt::format("{}: {}", to_string(method), patch.failure));
-      continue;
-    }
-    std::vector<FaceHandle> faces;
-    std::vector<VertexHandle> vertices;
-    std::vector<int> face_pieces;
-    std::string why;
-    if (!insert_patch(mesh, hole, patch, faces, vertices, face_pieces, why)) {
-      failures.push_back(fmt::format("{}: {}", to_string(method), why));
-      continue;
-    }
-    HoleFillReport attempt = report;
-    attempt.method = method;
-    attempt.pieces = patch.pieces;
-    attempt.angles_closed = patch.angles_closed;
-    std::vector<Vec3> flat_positions;
-    if (method == FillMethod::CreaseSplit) {
-      const bool fair_pieces =
-          options.creases.fair_pieces.value_or(decision.crease_regions == PatchShape::Fair);
-      refine_and_shape_pieces(mesh, patch.pieces, faces, face_pieces, vertices, flat_positions,
-                              fair_pieces, hole, options, attempt);
-      attempt.crease_curves = creases->curves.size();
-      attempt.shape_reason =
-          fmt::format("split along {} crease curve{} ({})", creases->curves.size(),
-                      creases->curves.size() == 1 ? "" : "s", creases->summary);
-    } else {
-      if (options.refine_iterations > 0) {
-        RefinementOptions ro;
-        ro.max_rounds = options.refine_iterations;
-        ro.keep_surface = shape == PatchShape::Flat;
-        const RefinementReport rr = refine_patch(mesh, faces, vertices, ro);
-        attempt.refinement_rounds = static_cast<std::size_t>(rr.rounds);
-        attempt.splits = rr.splits;
-        attempt.flips = rr.flips;
-      }
-      attempt.shape = PatchShape::Flat;
-      attempt.shape_reason = shape_reason;
-      if (shape == PatchShape::Fair) {
-        if (vertices.empty()) {
-          attempt.shape_reason = "no interior vertices to fair (" + shape_reason + ")";
-        } else {
-          for (const VertexHandle v : vertices) flat_positions.push_back(mesh.point(v));
-          const FairingReport fr = fair_vertices(mesh, vertices, options.fairing);
-          const double bulge = fr.ok ? max_displacement(mesh, vertices, flat_positions) /
-                                           std::max(hole.perimeter / (2 * std::numbers::pi), 1e-300)
-                                     : 0.0;
-          if (fr.ok && bulge > options.max_fair_bulge) {
-            for (std::size_t i = 0; i < vertices.size(); ++i)
-              mesh.set_point(vertices[i], flat_positions[i]);
-            attempt.warnings.push_back(fmt::format(
-                "the faired patch rose {:.2f} hole radii off the spanning triangulation (a "
-                "balloon, limit {:.2f}); it stays flat",
-                bulge, options.max_fair_bulge));
-          } else if (fr.ok) {
-            attempt.shape = PatchShape::Fair;
-          } else {
-            attempt.warnings.push_back("fairing failed (" + fr.failure + "); the patch stays flat");
-          }
+  std::vector<std::string> shape_warnings;
+  // Each method's triangulation, computed once: the first pass tries every method with its
+  // preferred shape, in order; a faired surface that is refused (a balloon, a singular system,
+  // an intersection) is built again flat from the same triangulation in the second pass, after
+  // the other methods had their faired try (a faired patch from the next method is closer to a
+  // curved surface than a flat one from this).
+  std::vector<std::optional<TopologyPatch>> topologies(methods.size());
+  std::vector<char> dead(methods.size(), 0);
+  std::vector<char> refused_fair(methods.size(), 0);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (std::size_t m = 0; m < methods.size(); ++m) {
+      const FillMethod method = methods[m];
+      if (dead[m]) continue;
+      const bool want_fair =
+          method == FillMethod::CreaseSplit
+              ? options.creases.fair_pieces.value_or(decision.crease_regions == PatchShape::Fair)
+              : shape == PatchShape::Fair;
+      if (pass == 1 && !refused_fair[m]) continue;
+      const bool fair = pass == 0 && want_fair;
+      if (!topologies[m]) {
+        if (method == FillMethod::MinimumWeight3d && hole.loop.size() > options.max_dp_vertices) {
+          failures.push_back(fmt::format("{}: {} boundary vertices exceed its limit of {}",
+                                         to_string(method), hole.loop.size(),
+                                         options.max_dp_vertices));
+          dead[m] = 1;
+          continue;
+        }
+        topologies[m] = triangulate(method, mesh, hole, loop, options, longest_edge,
+                                    creases ? &*creases : nullptr);
+        if (!topologies[m]->ok) {
+          failures.push_back(fmt::format("{}: {}", to_string(method), topologies[m]->failure));
+          dead[m] = 1;
+          continue;
         }
       }
-    }
-    for (const FaceHandle f : faces)
-      for (const HalfedgeHandle h : mesh.fh_range(f))
-        longest_edge = std::max(longest_edge, mesh.calc_edge_length(h));
-    // A simple hole's patch that projects injectively onto the hole's reference plane cannot
-    // intersect itself (projects_injectively), so only its contacts with the rest of the mesh
-    // need the triangle tests; otherwise every pair is tested.
-    const auto patch_intersects = [&] {
-      if (hole.is_simple &&
-          projects_injectively(mesh, faces,
-                               ReferenceFrame::from_normal(hole.reference_normal, hole.centroid)))
-        return !find_intersections_with_rest(mesh, faces, 1, longest_edge).empty();
-      return !find_face_intersections(mesh, faces, 1, longest_edge).empty();
-    };
-    if (options.check_intersections && patch_intersects()) {
-      if (attempt.shape == PatchShape::Fair) {
-        for (std::size_t i = 0; i < vertices.size(); ++i)
-          mesh.set_point(vertices[i], flat_positions[i]);
-        attempt.shape = PatchShape::Flat;
-        attempt.warnings.push_back("the faired patch intersected the mesh; kept it flat");
-      }
-      if (attempt.shape == PatchShape::Flat && patch_intersects()) {
-        remove_patch(mesh, faces, vertices);
-        failures.push_back(
-            fmt::format("{}: the new faces would intersect existing faces", to_string(method)));
+      const TopologyPatch& patch = *topologies[m];
+      std::vector<FaceHandle> faces;
+      std::vector<VertexHandle> vertices;
+      std::vector<int> face_pieces;
+      std::string why;
+      if (!insert_patch(mesh, hole, patch, faces, vertices, face_pieces, why)) {
+        failures.push_back(fmt::format("{}: {}", to_string(method), why));
+        dead[m] = 1;
         continue;
       }
+      HoleFillReport attempt = report;
+      attempt.method = method;
+      attempt.pieces = patch.pieces;
+      attempt.angles_closed = patch.angles_closed;
+      std::string refused = build_patch_surface(mesh, hole, faces, vertices, face_pieces,
+                                                patch.pieces, fair, pass == 1, options, attempt);
+      for (const FaceHandle f : faces)
+        for (const HalfedgeHandle h : mesh.fh_range(f))
+          longest_edge = std::max(longest_edge, mesh.calc_edge_length(h));
+      // A simple hole's patch that projects injectively onto the hole's reference plane cannot
+      // intersect itself (projects_injectively), so only its contacts with the rest of the
+      // mesh need the triangle tests; otherwise every pair is tested.
+      const auto patch_intersects = [&] {
+        if (hole.is_simple &&
+            projects_injectively(mesh, faces,
+                                 ReferenceFrame::from_normal(hole.reference_normal, hole.centroid)))
+          return !find_intersections_with_rest(mesh, faces, 1, longest_edge).empty();
+        return !find_face_intersections(mesh, faces, 1, longest_edge).empty();
+      };
+      if (refused.empty() && options.check_intersections && patch_intersects())
+        refused = fair ? "the faired patch would intersect the mesh"
+                       : "the new faces would intersect existing faces";
+      if (!refused.empty()) {
+        remove_patch(mesh, faces, vertices);
+        if (fair) {
+          shape_warnings.push_back(fmt::format("{}: {}", to_string(method), refused));
+          refused_fair[m] = 1;
+        } else {
+          failures.push_back(fmt::format("{}: {}", to_string(method), refused));
+          dead[m] = 1;
+        }
+        continue;
+      }
+      if (method == FillMethod::CreaseSplit) {
+        attempt.crease_curves = creases->curves.size();
+        attempt.shape_reason =
+            fmt::format("split along {} crease curve{} ({})", creases->curves.size(),
+                        creases->curves.size() == 1 ? "" : "s", creases->summary);
+      } else {
+        attempt.shape_reason = shape_reason;
+      }
+      attempt.filled = true;
+      attempt.reason.clear();
+      attempt.faces_added = faces.size();
+      attempt.vertices_added = vertices.size();
+      attempt.min_angle_deg = min_angle_deg(mesh, faces);
+      attempt.new_faces = std::move(faces);
+      attempt.new_vertices = std::move(vertices);
+      if (!shape_warnings.empty())
+        attempt.warnings.push_back(fmt::format("faired surfaces refused: {}{}",
+                                               fmt::join(shape_warnings, "; "),
+                                               fair ? "" : "; filled flat instead"));
+      if (!failures.empty())
+        attempt.warnings.push_back("earlier methods failed: " +
+                                   fmt::format("{}", fmt::join(failures, "; ")));
+      report = std::move(attempt);
+      return finish();
     }
-    attempt.filled = true;
-    attempt.reason.clear();
-    attempt.faces_added = faces.size();
-    attempt.vertices_added = vertices.size();
-    attempt.new_faces = std::move(faces);
-    attempt.new_vertices = std::move(vertices);
-    if (!failures.empty())
-      attempt.warnings.push_back("earlier methods failed: " +
-                                 fmt::format("{}", fmt::join(failures, "; ")));
-    report = std::move(attempt);
-    return finish();
   }
+  failures.insert(failures.end(), shape_warnings.begin(), shape_warnings.end());
   report.reason =
       failures.empty() ? "no method applies" : fmt::format("{}", fmt::join(failures, "; "));
   return finish();

@@ -30,6 +30,7 @@
 #include "server/geometry/fairing.h"
 #include "server/geometry/holes.h"
 #include "server/geometry/mesh.h"
+#include "server/geometry/patch_quality.h"
 #include "server/geometry/sharp_edges.h"
 
 namespace touchmend::geometry {
@@ -75,6 +76,10 @@ struct FillOptions {
   //! tangents open outwards, e.g. at the rim of a flat cap) and stays flat. A spherical cap of
   //! half-angle 53° rises half its radius; the shared cases' true patches stay below 0.4.
   double max_fair_bulge = 0.5;
+  //! After the refinement: mend the triangles below the quality goal (patch_quality.h) before
+  //! the patch is faired or kept flat. Off: the refined triangulation as Algorithm III leaves it.
+  bool improve_quality = true;
+  PatchQualityOptions quality;
   CreaseOptions creases;  //!< detection and pairing for SharpMode::Auto
   //! Curves given by the caller (picked points) instead of detected ones: used by the
   //! CreaseSplit method whatever `sharp` says.
@@ -100,6 +105,7 @@ struct HoleFillReport {
   std::size_t flips = 0;
   std::size_t faces_added = 0;
   std::size_t vertices_added = 0;
+  double min_angle_deg = 0;  //!< smallest angle of the new triangles
   double seconds = 0;
   std::vector<std::string> warnings;
   std::vector<FaceHandle> new_faces;

@@ -13,19 +13,45 @@ namespace {
 struct Weight {
   double angle = 0;  // largest dihedral deviation, radians
   double area = 0;
+  //! Smallest triangle angle, as the sine-free measure of triangle_shape (larger is better).
+  double shape = 1;
   // Angles closer than kAngleTie (in the bend measure below, ~1e-9 rad) are equal, so that
   // coplanar candidates, whose angles differ only by rounding, are ranked by area as the
   // weight intends.
   static constexpr double kAngleTie = 1e-18;
+  // Every triangulation of a planar polygon has the same area, so areas that differ only by
+  // rounding are equal too, and then the triangulation whose worst triangle is best wins (our
+  // third term: Liepa's weight leaves such ties to chance, which on the straight runs of a
+  // CAD part's hole picks slivers).
+  static constexpr double kAreaTie = 1e-9;
   bool operator<(const Weight& o) const {
     if (std::abs(angle - o.angle) > kAngleTie) return angle < o.angle;
-    return area < o.area;
+    if (std::abs(area - o.area) > kAreaTie * std::max(area, o.area)) return area < o.area;
+    return shape > o.shape;
   }
-  Weight operator+(const Weight& o) const { return {std::max(angle, o.angle), area + o.area}; }
+  Weight operator+(const Weight& o) const {
+    return {std::max(angle, o.angle), area + o.area, std::min(shape, o.shape)};
+  }
 };
 
 constexpr Weight kInvalid{std::numeric_limits<double>::infinity(),
-                          std::numeric_limits<double>::infinity()};
+                          std::numeric_limits<double>::infinity(), 0.0};
+
+//! A measure of a triangle's smallest angle that grows with it and needs no trigonometry: the
+//! smallest of the three (2·area / product of the two sides at a corner) = sin of that corner,
+//! taken at the corner opposite the shortest side (the smallest angle).
+double triangle_shape(const Vec3& a, const Vec3& b, const Vec3& c, double area) {
+  const double ab = (b - a).sqrnorm(), bc = (c - b).sqrnorm(), ca = (a - c).sqrnorm();
+  // The smallest angle is opposite the shortest side; its sine is 2·area / (the other two).
+  double product;
+  if (ab <= bc && ab <= ca)
+    product = bc * ca;
+  else if (bc <= ca)
+    product = ab * ca;
+  else
+    product = ab * bc;
+  return product > 0 ? 2 * area / std::sqrt(product) : 0.0;
+}
 
 //! A measure of the angle between unit normals that grows with the angle on [0, π] and needs
 //! no trigonometry (the DP evaluates it O(n^3) times): sin² below 90°, 2 - sin² above. It is
@@ -112,7 +138,8 @@ LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop,
         double angle = std::max(angle_between(nrm, n_im), angle_between(nrm, n_mk));
         if (i == 0 && k == n - 1)
           angle = std::max(angle, angle_between(nrm, boundary_normal[n - 1]));
-        const Weight w = left + right + Weight{angle, area};
+        const Weight w =
+            left + right + Weight{angle, area, triangle_shape(loop[i], loop[m], loop[k], area)};
         if (w < best) {
           best = w;
           best_m = m;

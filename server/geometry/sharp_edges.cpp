@@ -406,7 +406,74 @@ bool triangulate_region(const std::vector<int>& region, const std::vector<Vec3>&
 
 }  // namespace
 
-CurveSplitTriangulation triangulate_along_curves(const CurveSplitInput& input) {
+namespace {
+
+//! Where a curve passes (within a third of its sample spacing) by a boundary vertex other than
+//! its ends, the crease runs through that vertex: the curve is cut there into two curves that
+//! end on it (a piece joining two neighbouring boundary vertices is the boundary edge itself
+//! and is dropped). Left as it was, the sample beside the boundary vertex would make a sliver
+//! between the curve and the boundary that nothing downstream can mend, both being fixed.
+std::vector<CurveSplitInput::Curve> attach_curves_to_boundary(const CurveSplitInput& input) {
+  const int loop_n = static_cast<int>(input.loop.size());
+  std::vector<CurveSplitInput::Curve> out;
+  // A piece without samples between two neighbouring boundary vertices runs along the boundary
+  // edge that is already there: it adds nothing and is dropped.
+  const auto emit = [&](CurveSplitInput::Curve c) {
+    if (c.to >= 0 && c.interior.empty()) {
+      const int gap = ((c.to - c.from) % loop_n + loop_n) % loop_n;
+      if (gap == 0 || gap == 1 || gap == loop_n - 1) return;
+    }
+    out.push_back(std::move(c));
+  };
+  for (const auto& curve : input.curves) {
+    if (curve.from < 0 || curve.from >= loop_n || curve.to >= loop_n) {
+      out.push_back(curve);  // refused below with a clear reason
+      continue;
+    }
+    const Vec3 start = input.loop[static_cast<std::size_t>(curve.from)];
+    const Vec3 end = curve.to >= 0 ? input.loop[static_cast<std::size_t>(curve.to)]
+                                   : input.corner.value_or(start);
+    double length = 0;
+    Vec3 previous = start;
+    for (const Vec3& p : curve.interior) {
+      length += (p - previous).norm();
+      previous = p;
+    }
+    length += (end - previous).norm();
+    const double reach = length / static_cast<double>(curve.interior.size() + 1) / 3.0;
+    CurveSplitInput::Curve piece;
+    piece.from = curve.from;
+    for (const Vec3& p : curve.interior) {
+      int touched = -1;
+      double nearest = reach;
+      for (int i = 0; i < loop_n; ++i) {
+        const double d = (p - input.loop[static_cast<std::size_t>(i)]).norm();
+        if (d < nearest) {
+          nearest = d;
+          touched = i;
+        }
+      }
+      if (touched < 0) {
+        piece.interior.push_back(p);
+        continue;
+      }
+      if (touched == piece.from || touched == curve.to) continue;  // crowds its own end
+      piece.to = touched;
+      emit(piece);
+      piece = CurveSplitInput::Curve{};
+      piece.from = touched;
+    }
+    piece.to = curve.to;
+    emit(piece);
+  }
+  return out;
+}
+
+}  // namespace
+
+CurveSplitTriangulation triangulate_along_curves(const CurveSplitInput& original) {
+  CurveSplitInput input = original;
+  input.curves = attach_curves_to_boundary(original);
   CurveSplitTriangulation out;
   const int loop_n = static_cast<int>(input.loop.size());
   if (loop_n < 3) {

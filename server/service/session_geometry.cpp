@@ -128,6 +128,7 @@ void to_proto(const geometry::HoleFillReport& report, v1::HoleFillResult& out) {
   out.set_seconds(report.seconds);
   out.set_creases(report.creases);
   out.set_crease_curves(static_cast<std::uint32_t>(report.crease_curves));
+  out.set_min_angle_deg(report.min_angle_deg);
 }
 
 Status export_document(const rpc::MeshDocument& document, geometry::MeshFormat format, bool binary,

@@ -6,7 +6,9 @@
 
 #include "server/geometry/sharp_edges.h"
 
+#include <cmath>
 #include <map>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -174,8 +176,53 @@ TEST(CurveSplit, RejectsCurvesThatDoNotEndOnTheLoop) {
   EXPECT_FALSE(triangulate_along_curves(in).ok);
   in.curves = {{0, -1, {}}};  // to a corner that was not given
   EXPECT_FALSE(triangulate_along_curves(in).ok);
-  in.curves = {{0, 1, {}}};  // along a boundary edge
-  EXPECT_FALSE(triangulate_along_curves(in).ok);
+}
+
+TEST(CurveSplit, CurveAlongABoundaryEdgeAddsNothing) {
+  // A crease that runs along a boundary edge is already in the mesh: the curve is dropped and
+  // the hole is filled as one region.
+  const std::vector<Vec3> loop{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  const std::vector<Vec3> opposite(4, Vec3(0.5, 0.5, -1));
+  CurveSplitInput in;
+  in.loop = loop;
+  in.opposite = opposite;
+  in.curves = {{0, 1, {}}};
+  const CurveSplitTriangulation t = triangulate_along_curves(in);
+  ASSERT_TRUE(t.ok) << t.failure;
+  EXPECT_EQ(t.pieces, 1u);
+  EXPECT_EQ(t.triangles.size(), 2u);
+  EXPECT_TRUE(t.curve_edges.empty());
+}
+
+TEST(CurveSplit, CurvePassingByABoundaryVertexIsCutThere) {
+  // A hexagon split by a curve 0 -> 3 whose middle sample lies on the boundary vertex 2's
+  // doorstep (the crease runs through it): the curve becomes 0 -> 2 and 2 -> 3, the latter a
+  // boundary edge (dropped), and no sliver is left between the sample and vertex 2.
+  std::vector<Vec3> loop;
+  for (int i = 0; i < 6; ++i) {
+    const double a = i * std::numbers::pi / 3;
+    loop.push_back({std::cos(a), std::sin(a), 0});
+  }
+  const std::vector<Vec3> opposite(6, Vec3(0, 0, -1));
+  CurveSplitInput in;
+  in.loop = loop;
+  in.opposite = opposite;
+  in.curves = {{0, 3, {0.97 * loop[2]}}};
+  // Far from vertex 2: kept.
+  CurveSplitInput plain = in;
+  plain.curves = {{0, 3, {Vec3(0, 0, 0)}}};
+  const CurveSplitTriangulation kept = triangulate_along_curves(plain);
+  ASSERT_TRUE(kept.ok) << kept.failure;
+  EXPECT_EQ(kept.new_points.size(), 1u);
+  const CurveSplitTriangulation cut = triangulate_along_curves(in);
+  ASSERT_TRUE(cut.ok) << cut.failure;
+  EXPECT_TRUE(cut.new_points.empty());
+  EXPECT_EQ(cut.pieces, 2u);
+  std::vector<TrianglePoints> triangles;
+  for (const auto& t : cut.triangles)
+    triangles.push_back({loop[static_cast<std::size_t>(t[0])], loop[static_cast<std::size_t>(t[1])],
+                         loop[static_cast<std::size_t>(t[2])]});
+  EXPECT_GT(triangle_quality(triangles).min_angle_deg, 25.0);
 }
 
 }  // namespace

@@ -1,0 +1,352 @@
+#include "server/geometry/patch_quality.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <deque>
+#include <numbers>
+
+#include "server/geometry/face_set.h"
+#include "server/geometry/intersection.h"
+
+namespace touchmend::geometry {
+namespace {
+
+constexpr double kRadian = std::numbers::pi / 180.0;
+
+double corner_angle(const Vec3& at, const Vec3& b, const Vec3& c) {
+  const Vec3 u = b - at, w = c - at;
+  return std::atan2(OpenMesh::cross(u, w).norm(), OpenMesh::dot(u, w));
+}
+
+double triangle_min_angle(const Vec3& a, const Vec3& b, const Vec3& c) {
+  return std::min({corner_angle(a, b, c), corner_angle(b, c, a), corner_angle(c, a, b)});
+}
+
+std::array<Vec3, 3> face_points(const Mesh& mesh, FaceHandle f) {
+  std::array<Vec3, 3> p;
+  int k = 0;
+  for (const VertexHandle v : mesh.fv_range(f)) p[static_cast<std::size_t>(k++)] = mesh.point(v);
+  return p;
+}
+
+double face_min_angle(const Mesh& mesh, FaceHandle f) {
+  const auto p = face_points(mesh, f);
+  return triangle_min_angle(p[0], p[1], p[2]);
+}
+
+class Patch {
+ public:
+  Patch(Mesh& mesh, std::vector<FaceHandle>& faces, std::vector<VertexHandle>& new_vertices,
+        const PatchQualityOptions& options)
+      : mesh_(mesh),
+        faces_(faces),
+        new_vertices_(new_vertices),
+        set_(faces),
+        options_(options),
+        fold_cos_(std::cos(options.flat_fold_deg * kRadian)),
+        turn_cos_(std::cos((options.keep_surface ? options.flat_fold_deg : options.max_turn_deg) *
+                           kRadian)),
+        flip_turn_cos_(std::cos(options.max_turn_deg * kRadian)),
+        cap_(options.max_bisected_angle_deg * kRadian),
+        goal_(options.target_min_angle_deg * kRadian) {}
+
+  double min_angle() const {
+    double worst = std::numbers::pi;
+    for (const FaceHandle f : faces_) worst = std::min(worst, face_min_angle(mesh_, f));
+    return worst;
+  }
+
+  bool interior(EdgeHandle e) const {
+    return set_.contains(mesh_.face_handle(mesh_.halfedge_handle(e, 0))) &&
+           set_.contains(mesh_.face_handle(mesh_.halfedge_handle(e, 1)));
+  }
+
+  //! Flips interior edges while the smaller angle of the two triangles grows.
+  std::size_t flip_pass() {
+    std::deque<EdgeHandle> queue;
+    std::vector<char> queued(mesh_.n_edges(), 0);
+    const auto push = [&](EdgeHandle e) {
+      const auto i = static_cast<std::size_t>(e.idx());
+      if (i >= queued.size()) queued.resize(mesh_.n_edges(), 0);
+      if (queued[i] || !interior(e)) return;
+      queued[i] = 1;
+      queue.push_back(e);
+    };
+    for (const FaceHandle f : faces_)
+      for (const HalfedgeHandle h : mesh_.fh_range(f)) push(mesh_.edge_handle(h));
+    std::size_t budget = 20 * queue.size() + 100;
+    std::size_t flips = 0;
+    while (!queue.empty() && budget-- > 0) {
+      const EdgeHandle e = queue.front();
+      queue.pop_front();
+      queued[static_cast<std::size_t>(e.idx())] = 0;
+      if (!try_flip(e)) continue;
+      ++flips;
+      for (int side = 0; side < 2; ++side) {
+        const HalfedgeHandle h = mesh_.halfedge_handle(e, side);
+        push(mesh_.edge_handle(mesh_.next_halfedge_handle(h)));
+        push(mesh_.edge_handle(mesh_.prev_halfedge_handle(h)));
+      }
+    }
+    return flips;
+  }
+
+  //! Moves each free vertex towards the centre of its ring, in its tangent plane, when the
+  //! smallest angle around it grows.
+  std::size_t smooth_pass() {
+    std::vector<VertexHandle> candidates;
+    std::vector<char> seen(mesh_.n_vertices(), 0);
+    for (const FaceHandle f : faces_)
+      for (const VertexHandle v : mesh_.fv_range(f)) {
+        char& s = seen[static_cast<std::size_t>(v.idx())];
+        if (s) continue;
+        s = 1;
+        candidates.push_back(v);
+      }
+    std::size_t moves = 0;
+    for (const VertexHandle v : candidates) moves += try_move(v) ? 1 : 0;
+    return moves;
+  }
+
+  //! Bisects the longest edge of every triangle still below the goal, where that edge is
+  //! interior and not already short.
+  std::size_t split_pass() {
+    std::vector<double> rim;
+    for (const FaceHandle f : faces_)
+      for (const HalfedgeHandle h : mesh_.fh_range(f))
+        if (!interior(mesh_.edge_handle(h))) rim.push_back(mesh_.calc_edge_length(h));
+    if (rim.empty()) return 0;
+    std::nth_element(rim.begin(), rim.begin() + static_cast<std::ptrdiff_t>(rim.size() / 2),
+                     rim.end());
+    const double shortest = options_.min_split_length * rim[rim.size() / 2];
+    std::size_t splits = 0;
+    const std::vector<FaceHandle> snapshot = faces_;
+    for (const FaceHandle f : snapshot) {
+      const auto p = face_points(mesh_, f);
+      if (triangle_min_angle(p[0], p[1], p[2]) >= goal_) continue;
+      const double largest =
+          std::max({corner_angle(p[0], p[1], p[2]), corner_angle(p[1], p[2], p[0]),
+                    corner_angle(p[2], p[0], p[1])});
+      if (largest > cap_) continue;
+      HalfedgeHandle longest;
+      double length = 0;
+      for (const HalfedgeHandle h : mesh_.fh_range(f)) {
+        const double l = mesh_.calc_edge_length(h);
+        if (l > length) {
+          length = l;
+          longest = h;
+        }
+      }
+      const EdgeHandle e = mesh_.edge_handle(longest);
+      if (!interior(e) || length < shortest) continue;
+      const Vec3& a = mesh_.point(mesh_.from_vertex_handle(longest));
+      const Vec3& b = mesh_.point(mesh_.to_vertex_handle(longest));
+      const Vec3& c = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(longest)));
+      const HalfedgeHandle twin = mesh_.opposite_halfedge_handle(longest);
+      const Vec3& d = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(twin)));
+      const Vec3 middle = 0.5 * (a + b);
+      // The four triangles around the midpoint. Where they fold (the edge lies on a crease of a
+      // flat patch) the midpoint cannot be smoothed afterwards: bisect only if that alone does
+      // not make the worst of the two triangles worse. A patch to be faired places it anew.
+      const std::array<std::array<Vec3, 3>, 4> halves{
+          {{a, middle, c}, {middle, b, c}, {b, middle, d}, {middle, a, d}}};
+      double after = std::numbers::pi;
+      Vec3 first(0, 0, 0);
+      bool movable = true;
+      for (const auto& t : halves) {
+        after = std::min(after, triangle_min_angle(t[0], t[1], t[2]));
+        const Vec3 n = OpenMesh::cross(t[1] - t[0], t[2] - t[0]).normalize_cond();
+        if (first.norm() == 0)
+          first = n;
+        else if (options_.keep_surface)
+          movable = movable && OpenMesh::dot(first, n) >= turn_cos_;
+      }
+      const double before = std::min(triangle_min_angle(a, b, c), triangle_min_angle(b, a, d));
+      if (!movable && after < before) continue;
+      const VertexHandle v = mesh_.split(e, middle);
+      new_vertices_.push_back(v);
+      for (const FaceHandle nf : mesh_.vf_range(v))
+        if (!set_.contains(nf)) {
+          set_.insert(nf);
+          faces_.push_back(nf);
+        }
+      ++splits;
+    }
+    return splits;
+  }
+
+  double goal() const { return goal_; }
+
+ private:
+  bool try_flip(EdgeHandle e) {
+    if (!interior(e) || !mesh_.is_flip_ok(e)) return false;
+    const HalfedgeHandle h0 = mesh_.halfedge_handle(e, 0), h1 = mesh_.halfedge_handle(e, 1);
+    const Vec3& pi = mesh_.point(mesh_.from_vertex_handle(h0));
+    const Vec3& pj = mesh_.point(mesh_.to_vertex_handle(h0));
+    const Vec3& pk = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h0)));
+    const Vec3& pm = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h1)));
+    const double before = std::min(triangle_min_angle(pi, pj, pk), triangle_min_angle(pj, pi, pm));
+    const double after = std::min(triangle_min_angle(pk, pi, pm), triangle_min_angle(pm, pj, pk));
+    if (!(after > before + 1e-9)) return false;
+    // A flat patch keeps its surface: the two diagonals of the quad bound how far a flip moves
+    // it (zero for coplanar triangles, a sliver's width for a sliver, the fold's depth across a
+    // crease), and that may be at most a small part of the quad.
+    if (options_.keep_surface) {
+      const double span = std::max((pi - pj).norm(), (pk - pm).norm());
+      if (segment_segment_distance2(pi, pj, pk, pm) >
+          std::pow(options_.flat_flip_tolerance * span, 2))
+        return false;
+    }
+    // Area-weighted, so that a sliver's ill-defined normal does not count.
+    const Vec3 reference =
+        (OpenMesh::cross(pj - pi, pk - pi) + OpenMesh::cross(pi - pj, pm - pj)).normalize_cond();
+    // The flipped triangles (k, i, m) and (m, j, k) keep the orientation and, within the
+    // allowed turn, the plane of the two they replace.
+    for (const Vec3& n : {OpenMesh::cross(pi - pk, pm - pk), OpenMesh::cross(pj - pm, pk - pm)}) {
+      const double length = n.norm();
+      if (!(length > 0) || OpenMesh::dot(n, reference) < flip_turn_cos_ * length) return false;
+    }
+    mesh_.flip(e);
+    return true;
+  }
+
+  bool free(VertexHandle v, Vec3& normal) const {
+    if (mesh_.is_boundary(v)) return false;
+    Vec3 sum(0, 0, 0);
+    Vec3 first(0, 0, 0);
+    for (const FaceHandle f : mesh_.vf_range(v)) {
+      if (!set_.contains(f)) return false;
+      const auto p = face_points(mesh_, f);
+      const Vec3 n = OpenMesh::cross(p[1] - p[0], p[2] - p[0]);
+      if (options_.keep_surface) {
+        const Vec3 unit = Vec3(n).normalize_cond();
+        if (first.norm() == 0)
+          first = unit;
+        else if (OpenMesh::dot(first, unit) < fold_cos_)
+          return false;
+      }
+      sum += n;  // area-weighted
+    }
+    normal = sum.normalize_cond();
+    return normal.norm() > 0;
+  }
+
+  //! Two candidate moves, each tried at full, half and quarter length: towards the centre of
+  //! the ring (Laplacian smoothing) and towards the apex that would make the worst triangle
+  //! around the vertex equilateral over its far edge (angle-based smoothing, which mends a
+  //! vertex pulled next to a fixed edge). The move kept is the one whose smallest angle around
+  //! the vertex is largest, if it beats the current one.
+  bool try_move(VertexHandle v) {
+    Vec3 normal;
+    if (!free(v, normal)) return false;
+    const Vec3 p = mesh_.point(v);
+    struct Corner {
+      Vec3 b, c, normal;  // the face is (v, b, c) in its orientation
+    };
+    std::vector<Corner> ring;
+    Vec3 centre(0, 0, 0);
+    double before = std::numbers::pi;
+    const Corner* worst = nullptr;
+    for (const HalfedgeHandle h : mesh_.voh_range(v)) {
+      if (mesh_.is_boundary(h)) return false;
+      const Vec3& b = mesh_.point(mesh_.to_vertex_handle(h));
+      const Vec3& c = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h)));
+      ring.push_back({b, c, OpenMesh::cross(b - p, c - p).normalize_cond()});
+      centre += b;
+    }
+    if (ring.size() < 3) return false;
+    centre /= static_cast<double>(ring.size());
+    for (const Corner& t : ring) {
+      const double a = triangle_min_angle(p, t.b, t.c);
+      if (a < before) {
+        before = a;
+        worst = &t;
+      }
+    }
+    const auto tangential = [&](Vec3 d) { return d - OpenMesh::dot(d, normal) * normal; };
+    std::vector<Vec3> steps{tangential(centre - p)};
+    if (worst != nullptr && options_.apex_moves) {
+      const Vec3 base = worst->c - worst->b;
+      const Vec3 middle = 0.5 * (worst->b + worst->c);
+      Vec3 out = tangential(p - middle);
+      out -= (OpenMesh::dot(out, base) / std::max(base.sqrnorm(), 1e-300)) * base;
+      if (out.sqrnorm() > 0)
+        steps.push_back(
+            tangential(middle + out.normalize() * (0.5 * std::sqrt(3.0) * base.norm()) - p));
+    }
+    double best = before + 1e-9;
+    Vec3 chosen = p;
+    for (const Vec3& step : steps) {
+      if (!(step.sqrnorm() > 0)) continue;
+      for (const double fraction : {1.0, 0.5, 0.25}) {
+        const Vec3 q = p + fraction * step;
+        double after = std::numbers::pi;
+        bool valid = true;
+        for (const Corner& t : ring) {
+          const Vec3 n = OpenMesh::cross(t.b - q, t.c - q);
+          const double length = n.norm();
+          if (!(length > 0) || OpenMesh::dot(n, t.normal) < turn_cos_ * length) {
+            valid = false;
+            break;
+          }
+          after = std::min(after, triangle_min_angle(q, t.b, t.c));
+        }
+        if (valid && after > best) {
+          best = after;
+          chosen = q;
+        }
+      }
+    }
+    if (chosen == p) return false;
+    mesh_.set_point(v, chosen);
+    return true;
+  }
+
+  Mesh& mesh_;
+  std::vector<FaceHandle>& faces_;
+  std::vector<VertexHandle>& new_vertices_;
+  FaceSet set_;
+  const PatchQualityOptions& options_;
+  double fold_cos_;
+  double turn_cos_;
+  double flip_turn_cos_;
+  double cap_;
+  double goal_;
+};
+
+}  // namespace
+
+double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces) {
+  double worst = std::numbers::pi;
+  for (const FaceHandle f : faces) worst = std::min(worst, face_min_angle(mesh, f));
+  return worst / kRadian;
+}
+
+PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
+                                         std::vector<VertexHandle>& new_vertices,
+                                         const PatchQualityOptions& options) {
+  PatchQualityReport report;
+  if (patch_faces.empty()) return report;
+  Patch patch(mesh, patch_faces, new_vertices, options);
+  report.min_angle_before_deg = patch.min_angle() / kRadian;
+  for (int round = 0; round < options.max_rounds; ++round) {
+    report.rounds = round + 1;
+    report.flips += patch.flip_pass();
+    report.moves += patch.smooth_pass();
+    if (patch.min_angle() >= patch.goal()) break;
+    const std::size_t splits = options.bisect ? patch.split_pass() : 0;
+    report.splits += splits;
+    if (splits == 0) {
+      // Nothing left to bisect: one more flip and smoothing pass settles the last splits.
+      break;
+    }
+  }
+  // Settle the last bisections (and any round cut short by the cap).
+  report.flips += patch.flip_pass();
+  report.moves += patch.smooth_pass();
+  report.min_angle_after_deg = patch.min_angle() / kRadian;
+  return report;
+}
+
+}  // namespace touchmend::geometry

@@ -1,0 +1,75 @@
+#pragma once
+
+//! \file patch_quality.h
+//! \brief Triangle quality of a fill patch (DESIGN: "minimum angle ≥ 15° for refined fills").
+//!
+//! \details Liepa's refinement (Algorithm III) places vertices at centroids and relaxes by the
+//! circumsphere test, which keeps the slivers of the initial triangulation where they touch the
+//! boundary, and a flat patch may only flip edges between coplanar triangles. This pass works on
+//! the triangles whose smallest angle is below a goal, with the patch's boundary fixed:
+//!  - min-angle edge flips: an interior edge is flipped when the smaller angle of its two
+//!    triangles grows (in the plane this is the Delaunay flip: it maximises the minimum angle);
+//!  - tangential smoothing: a free vertex moves towards the centre of its ring, in its tangent
+//!    plane, and only when the smallest angle around it grows (so the pass never makes the worst
+//!    triangle worse);
+//!  - longest-edge bisection (Rivara) of the triangles still bad, when that edge is interior:
+//!    the midpoint of a fold between two planes lies on both, so even a flat patch keeps its
+//!    surface exactly.
+//! Nothing outside the patch changes; vertices on the patch's boundary never move.
+
+#include <cstddef>
+#include <vector>
+
+#include "server/geometry/mesh.h"
+
+namespace touchmend::geometry {
+
+struct PatchQualityOptions {
+  //! Triangles with a smaller angle are worked on (a margin over the 15° goal, since fairing
+  //! afterwards distorts the shapes a little).
+  double target_min_angle_deg = 20.0;
+  int max_rounds = 8;
+  //! The patch is final as it is (flat): flips and moves only where the triangles involved fold
+  //! by less than `flat_fold_deg`, and turn no triangle by more, so a planar region stays
+  //! exactly in its plane and a crease between planes (far sharper) is never touched; only the
+  //! soft folds of a spanning triangulation over a non-planar boundary may change a little.
+  bool keep_surface = false;
+  double flat_fold_deg = 10.0;
+  //! keep_surface: a flip may move the surface by at most this fraction of the quad's longer
+  //! diagonal (the distance between the two diagonals bounds the move).
+  double flat_flip_tolerance = 0.01;
+  //! Otherwise (the patch will be faired): a flip or move may turn a triangle's normal by at
+  //! most this, so the spanning surface is not folded.
+  double max_turn_deg = 30.0;
+  //! Bisection is for needles; a cap (one angle above this) is mended by flipping its long
+  //! edge instead, since bisecting it puts the new vertex next to the obtuse one.
+  double max_bisected_angle_deg = 120.0;
+  bool bisect = true;  //!< false: flips and moves only (the vertex count stays)
+  //! Also try moving a vertex towards the apex that makes its worst triangle equilateral
+  //! (mends a vertex pulled next to a fixed edge; larger moves than Laplacian smoothing).
+  bool apex_moves = false;
+  //! Edges shorter than this fraction of the median edge on the patch's boundary are not
+  //! bisected (the patch's density was set by the refinement; this only mends shapes).
+  double min_split_length = 0.5;
+};
+
+struct PatchQualityReport {
+  int rounds = 0;
+  std::size_t flips = 0;
+  std::size_t moves = 0;
+  std::size_t splits = 0;
+  double min_angle_before_deg = 180;
+  double min_angle_after_deg = 180;
+};
+
+//! Improves the triangles of \p patch_faces in place. Faces and vertices the bisections create
+//! are appended to \p patch_faces and \p new_vertices. A vertex is free (may move) when every
+//! face around it is in the patch and, with keep_surface, they are coplanar.
+PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
+                                         std::vector<VertexHandle>& new_vertices,
+                                         const PatchQualityOptions& options = {});
+
+//! Smallest angle (degrees) of the triangles of \p faces.
+double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces);
+
+}  // namespace touchmend::geometry

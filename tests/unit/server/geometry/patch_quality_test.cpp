@@ -1,0 +1,103 @@
+#include "server/geometry/patch_quality.h"
+
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "server/geometry/holes.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/metrics.h"
+#include "tests/support/mesh_factory.h"
+
+namespace touchmend::geometry {
+namespace {
+
+//! A flat annulus around a round hole of 24 edges (radius 3; z lifted by \p height), the hole
+//! closed by a fan from one boundary vertex: needles and caps along the far side.
+struct FannedHole {
+  Mesh mesh;
+  std::vector<FaceHandle> patch;
+  std::vector<VertexHandle> loop;
+};
+
+FannedHole fanned_hole(const std::function<double(double, double)>& height = {}) {
+  MeshSoup s = testing::annulus(24, 3.0, 3, 1.0);
+  if (height)
+    for (Vec3& p : s.points) p[2] = height(p[0], p[1]);
+  FannedHole out{build_mesh(s).mesh, {}, {}};
+  for (const Hole& h : find_holes(out.mesh).holes)
+    if (h.loop.size() == 24) out.loop = h.loop;
+  // The loop runs along the boundary halfedges with the hole on their left: faces
+  // (v0, v[i], v[i+1]) take those halfedges and close it with the mesh's orientation.
+  const std::size_t n = out.loop.size();
+  for (std::size_t i = 1; i + 1 < n; ++i)
+    out.patch.push_back(out.mesh.add_face(out.loop[0], out.loop[i], out.loop[i + 1]));
+  return out;
+}
+
+TEST(PatchQuality, FlatFanBecomesWellShapedAndStaysInItsPlane) {
+  FannedHole h = fanned_hole();
+  ASSERT_EQ(h.loop.size(), 24u);
+  for (const FaceHandle f : h.patch) ASSERT_TRUE(f.is_valid());
+  std::vector<Vec3> boundary_before;
+  for (const VertexHandle v : h.loop) boundary_before.push_back(h.mesh.point(v));
+  std::vector<VertexHandle> added;
+  PatchQualityOptions options;
+  options.keep_surface = true;
+  const PatchQualityReport r = improve_patch_quality(h.mesh, h.patch, added, options);
+  EXPECT_LT(r.min_angle_before_deg, 8.0);  // the fan's needles: 180° / 24 at the apex
+  EXPECT_GE(r.min_angle_after_deg, 15.0);
+  EXPECT_NEAR(r.min_angle_after_deg, min_angle_deg(h.mesh, h.patch), 1e-9);
+  EXPECT_GT(r.flips + r.splits, 0u);
+  for (std::size_t i = 0; i < h.loop.size(); ++i)
+    EXPECT_EQ(h.mesh.point(h.loop[i]), boundary_before[i]);  // the boundary never moves
+  for (const FaceHandle f : h.patch)
+    for (const VertexHandle v : h.mesh.fv_range(f)) EXPECT_EQ(h.mesh.point(v)[2], 0.0);
+  EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
+  EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);  // only the grid's border is open
+}
+
+TEST(PatchQuality, FlatPatchNeverFlipsAcrossACrease) {
+  // A valley: z = |x| folds by 90° along x = 0 through the middle of the hole. The fan's faces
+  // span the fold; mending may flip and move only within the flat stretches of the fan (the
+  // fold is far sharper than the 10° it allows), so no vertex may end up below the fan.
+  const auto valley = [](double x, double) { return std::abs(x); };
+  FannedHole h = fanned_hole(valley);
+  ASSERT_EQ(h.loop.size(), 24u);
+  for (const FaceHandle f : h.patch) ASSERT_TRUE(f.is_valid());
+  std::vector<VertexHandle> added;
+  PatchQualityOptions options;
+  options.keep_surface = true;
+  const PatchQualityReport r = improve_patch_quality(h.mesh, h.patch, added, options);
+  EXPECT_GE(r.min_angle_after_deg, r.min_angle_before_deg);
+  for (const FaceHandle f : h.patch)
+    for (const VertexHandle v : h.mesh.fv_range(f)) {
+      const Vec3 p = h.mesh.point(v);
+      // On or above the valley (z >= |x|): every point of the fan over the convex hole lies
+      // on a chord between two valley points, and mending keeps vertices on the fan.
+      EXPECT_GE(p[2], std::abs(p[0]) - 1e-9);
+    }
+  EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
+}
+
+TEST(PatchQuality, CurvedPatchKeepsItsTurnLimit) {
+  // A bowl z = 0.03 (x² + y²): mending a fan over it (not kept flat) may move vertices, but no
+  // triangle turns over.
+  const auto bowl = [](double x, double y) { return 0.03 * (x * x + y * y); };
+  FannedHole h = fanned_hole(bowl);
+  ASSERT_EQ(h.loop.size(), 24u);
+  for (const FaceHandle f : h.patch) ASSERT_TRUE(f.is_valid());
+  std::vector<VertexHandle> added;
+  const PatchQualityReport r = improve_patch_quality(h.mesh, h.patch, added, {});
+  EXPECT_GT(r.min_angle_after_deg, r.min_angle_before_deg);
+  EXPECT_GE(r.min_angle_after_deg, 15.0);
+  for (const FaceHandle f : h.patch) {
+    const Vec3 n = h.mesh.calc_face_normal(f);
+    EXPECT_GT(n[2], 0.5);  // still facing up
+  }
+  EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
+}
+
+}  // namespace
+}  // namespace touchmend::geometry
