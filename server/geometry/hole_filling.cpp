@@ -84,7 +84,7 @@ struct TopologyPatch {
 };
 
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
-                          const LoopData& loop, const FillOptions& options, double longest_edge,
+                          const LoopData& loop, const FillOptions& options, const FaceIndex& index,
                           const HoleCreasePlan* creases) {
   TopologyPatch out;
   if (method == FillMethod::CreaseSplit) {
@@ -143,7 +143,9 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
   region.max().array() += pad;
   std::vector<TrianglePoints> near_faces;
   std::vector<std::array<int, 3>> near_ids;
-  for (const FaceHandle f : faces_in_box(mesh, region, longest_edge)) {
+  std::vector<FaceHandle> region_faces;
+  index.for_each_in_box(mesh, region, [&](FaceHandle f) { region_faces.push_back(f); });
+  for (const FaceHandle f : region_faces) {
     TrianglePoints t;
     std::array<int, 3> ids;
     int k = 0;
@@ -588,9 +590,9 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
   return {};
 }
 
-//! fill_hole with the mesh's longest edge cached across holes (0: not known yet).
+//! fill_hole with the mesh's face index kept across holes (the new faces are filed in it).
 HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
-                                double& longest_edge) {
+                                FaceIndex& index) {
   const auto start = Clock::now();
   HoleFillReport report;
   report.hole_id = hole.id;
@@ -609,7 +611,6 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     return finish();
   }
   const LoopData loop = gather_loop(mesh, hole);
-  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
   ShapeDecision decision;
   if (options.shape == PatchShape::Auto) {
     decision = decide_shape(mesh, hole, options);
@@ -669,8 +670,8 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
           dead[m] = 1;
           continue;
         }
-        topologies[m] = triangulate(method, mesh, hole, loop, options, longest_edge,
-                                    creases ? &*creases : nullptr);
+        topologies[m] =
+            triangulate(method, mesh, hole, loop, options, index, creases ? &*creases : nullptr);
         if (!topologies[m]->ok) {
           failures.push_back(fmt::format("{}: {}", to_string(method), topologies[m]->failure));
           dead[m] = 1;
@@ -693,9 +694,6 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       attempt.angles_closed = patch.angles_closed;
       std::string refused = build_patch_surface(mesh, hole, faces, vertices, face_pieces,
                                                 patch.pieces, fair, pass == 1, options, attempt);
-      for (const FaceHandle f : faces)
-        for (const HalfedgeHandle h : mesh.fh_range(f))
-          longest_edge = std::max(longest_edge, mesh.calc_edge_length(h));
       // A simple hole's patch that projects injectively onto the hole's reference plane cannot
       // intersect itself (projects_injectively), so only its contacts with the rest of the
       // mesh need the triangle tests; otherwise every pair is tested.
@@ -703,8 +701,8 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         if (hole.is_simple &&
             projects_injectively(mesh, faces,
                                  ReferenceFrame::from_normal(hole.reference_normal, hole.centroid)))
-          return !find_intersections_with_rest(mesh, faces, 1, longest_edge).empty();
-        return !find_face_intersections(mesh, faces, 1, longest_edge).empty();
+          return !find_intersections_with_rest(mesh, faces, index, 1).empty();
+        return !find_face_intersections(mesh, faces, index, 1).empty();
       };
       if (refused.empty() && options.check_intersections && patch_intersects())
         refused = fair ? "the faired patch would intersect the mesh"
@@ -743,6 +741,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         attempt.warnings.push_back("earlier methods failed: " +
                                    fmt::format("{}", fmt::join(failures, "; ")));
       report = std::move(attempt);
+      for (const FaceHandle f : report.new_faces) index.insert(mesh, f);
       return finish();
     }
   }
@@ -755,8 +754,8 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
 }  // namespace
 
 HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options) {
-  double longest_edge = 0;
-  return fill_hole_cached(mesh, hole, options, longest_edge);
+  FaceIndex index(mesh);
+  return fill_hole_cached(mesh, hole, options, index);
 }
 
 std::size_t FillReport::filled() const {
@@ -799,9 +798,12 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
         selected.push_back(&found.holes[nearest->index]);
       break;
   }
-  // Per-mesh preparation, like the hole search above: the longest edge bounds the local
-  // searches for faces near each patch. Not part of any hole's time.
-  double longest_edge = selected.empty() ? 0.0 : max_edge_length(mesh);
+  // Per-mesh preparation, like the hole search above: the grid of faces that the intersection
+  // checks of every patch query (one pass over the faces). Not part of any hole's time; the
+  // report gives it as index_seconds.
+  const auto index_start = Clock::now();
+  FaceIndex index = selected.empty() ? FaceIndex() : FaceIndex(mesh);
+  report.index_seconds = std::chrono::duration<double>(Clock::now() - index_start).count();
   for (std::size_t i = 0; i < selected.size(); ++i) {
     const Hole& hole = *selected[i];  // properties completed just before filling
     if (selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary) {
@@ -816,7 +818,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
       if (!selected[i]->projectability_computed) {
         compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
       }
-      report.holes.push_back(fill_hole_cached(mesh, hole, options, longest_edge));
+      report.holes.push_back(fill_hole_cached(mesh, hole, options, index));
     }
     if (progress && !progress(i + 1, selected.size())) break;
   }

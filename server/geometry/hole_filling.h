@@ -128,6 +128,7 @@ struct FillReport {
   std::vector<HoleFillReport> holes;
   std::vector<std::uint32_t> unknown_ids;  //!< requested ids that name no hole
   std::size_t holes_found = 0;
+  double index_seconds = 0;  //!< building the face index the checks share (per mesh, not per hole)
   std::size_t filled() const;
   std::size_t left_open() const;
 };

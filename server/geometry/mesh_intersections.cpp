@@ -106,7 +106,59 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh
   return out;
 }
 
+std::vector<std::pair<FaceHandle, FaceHandle>> indexed_intersections(
+    const Mesh& mesh, std::span<const FaceHandle> faces, const FaceIndex& index,
+    std::size_t stop_after, bool test_within) {
+  std::vector<std::pair<FaceHandle, FaceHandle>> out;
+  if (faces.empty()) return out;
+  std::vector<int> chosen;
+  chosen.reserve(faces.size());
+  std::vector<TrianglePoints> triangles(faces.size());
+  std::vector<std::array<int, 3>> ids(faces.size());
+  for (std::size_t i = 0; i < faces.size(); ++i) {
+    chosen.push_back(faces[i].idx());
+    face_data(mesh, faces[i], triangles[i], ids[i]);
+  }
+  std::sort(chosen.begin(), chosen.end());
+  const auto is_chosen = [&](FaceHandle g) {
+    return std::binary_search(chosen.begin(), chosen.end(), g.idx());
+  };
+  const auto full = [&] { return stop_after != 0 && out.size() >= stop_after; };
+  // Against the rest of the mesh, through the index.
+  for (std::size_t i = 0; i < faces.size() && !full(); ++i) {
+    index.for_each_in_box(mesh, triangle_box(triangles[i]), [&](FaceHandle g) {
+      if (full() || is_chosen(g)) return;
+      TrianglePoints t;
+      std::array<int, 3> g_ids;
+      face_data(mesh, g, t, g_ids);
+      if (triangles_intersect(triangles[i], ids[i], t, g_ids)) out.emplace_back(faces[i], g);
+    });
+  }
+  if (!test_within || full()) return out;
+  // Among the chosen faces themselves.
+  const TriangleBvh bvh(triangles);
+  for (std::size_t i = 0; i < faces.size() && !full(); ++i)
+    bvh.query_box(triangle_box(triangles[i]), [&](std::uint32_t j) {
+      if (full() || j <= i) return;
+      if (triangles_intersect(triangles[i], ids[i], triangles[j], ids[j]))
+        out.emplace_back(faces[i], faces[j]);
+    });
+  return out;
+}
+
 }  // namespace
+
+std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
+    const Mesh& mesh, std::span<const FaceHandle> faces, const FaceIndex& index,
+    std::size_t stop_after) {
+  return indexed_intersections(mesh, faces, index, stop_after, true);
+}
+
+std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
+    const Mesh& mesh, std::span<const FaceHandle> faces, const FaceIndex& index,
+    std::size_t stop_after) {
+  return indexed_intersections(mesh, faces, index, stop_after, false);
+}
 
 std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,

@@ -14,13 +14,39 @@ namespace {
 
 constexpr double kRadian = std::numbers::pi / 180.0;
 
-double corner_angle(const Vec3& at, const Vec3& b, const Vec3& c) {
-  const Vec3 u = b - at, w = c - at;
-  return std::atan2(OpenMesh::cross(u, w).norm(), OpenMesh::dot(u, w));
+//! sin of a triangle's smallest angle: the angle opposite the shortest side, never above 60°,
+//! where the sine grows with the angle, so comparing these compares the smallest angles without
+//! any trigonometry (this pass evaluates it for every candidate of every move and flip).
+double triangle_shape(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const double ab = (b - a).sqrnorm(), bc = (c - b).sqrnorm(), ca = (a - c).sqrnorm();
+  double product;  // the two sides at the smallest angle
+  if (ab <= bc && ab <= ca)
+    product = bc * ca;
+  else if (bc <= ca)
+    product = ab * ca;
+  else
+    product = ab * bc;
+  const double twice_area = OpenMesh::cross(b - a, c - a).norm();
+  return product > 0 ? twice_area / std::sqrt(product) : 0.0;
 }
 
-double triangle_min_angle(const Vec3& a, const Vec3& b, const Vec3& c) {
-  return std::min({corner_angle(a, b, c), corner_angle(b, c, a), corner_angle(c, a, b)});
+//! cos of a triangle's largest angle (opposite the longest side).
+double largest_angle_cos(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const double ab = (b - a).sqrnorm(), bc = (c - b).sqrnorm(), ca = (a - c).sqrnorm();
+  double x, y, z;  // z: the longest side, squared
+  if (ab >= bc && ab >= ca) {
+    z = ab, x = bc, y = ca;
+  } else if (bc >= ca) {
+    z = bc, x = ab, y = ca;
+  } else {
+    z = ca, x = ab, y = bc;
+  }
+  const double denominator = 2 * std::sqrt(x * y);
+  return denominator > 0 ? (x + y - z) / denominator : -1.0;
+}
+
+double shape_to_degrees(double shape) {
+  return std::asin(std::clamp(shape, 0.0, 1.0)) / kRadian;
 }
 
 std::array<Vec3, 3> face_points(const Mesh& mesh, FaceHandle f) {
@@ -30,9 +56,9 @@ std::array<Vec3, 3> face_points(const Mesh& mesh, FaceHandle f) {
   return p;
 }
 
-double face_min_angle(const Mesh& mesh, FaceHandle f) {
+double face_shape(const Mesh& mesh, FaceHandle f) {
   const auto p = face_points(mesh, f);
-  return triangle_min_angle(p[0], p[1], p[2]);
+  return triangle_shape(p[0], p[1], p[2]);
 }
 
 class Patch {
@@ -48,12 +74,13 @@ class Patch {
         turn_cos_(std::cos((options.keep_surface ? options.flat_fold_deg : options.max_turn_deg) *
                            kRadian)),
         flip_turn_cos_(std::cos(options.max_turn_deg * kRadian)),
-        cap_(options.max_bisected_angle_deg * kRadian),
-        goal_(options.target_min_angle_deg * kRadian) {}
+        cap_cos_(std::cos(options.max_bisected_angle_deg * kRadian)),
+        goal_(std::sin(std::min(options.target_min_angle_deg, 60.0) * kRadian)) {}
 
-  double min_angle() const {
-    double worst = std::numbers::pi;
-    for (const FaceHandle f : faces_) worst = std::min(worst, face_min_angle(mesh_, f));
+  //! The worst triangle's shape (sin of its smallest angle).
+  double min_shape() const {
+    double worst = 1.0;
+    for (const FaceHandle f : faces_) worst = std::min(worst, face_shape(mesh_, f));
     return worst;
   }
 
@@ -73,8 +100,10 @@ class Patch {
       queued[i] = 1;
       queue.push_back(e);
     };
+    // Only the edges of the triangles below the goal; a flip queues the edges around it.
     for (const FaceHandle f : faces_)
-      for (const HalfedgeHandle h : mesh_.fh_range(f)) push(mesh_.edge_handle(h));
+      if (face_shape(mesh_, f) < goal_)
+        for (const HalfedgeHandle h : mesh_.fh_range(f)) push(mesh_.edge_handle(h));
     std::size_t budget = 20 * queue.size() + 100;
     std::size_t flips = 0;
     while (!queue.empty() && budget-- > 0) {
@@ -97,13 +126,16 @@ class Patch {
   std::size_t smooth_pass() {
     std::vector<VertexHandle> candidates;
     std::vector<char> seen(mesh_.n_vertices(), 0);
-    for (const FaceHandle f : faces_)
+    // Only the corners of the triangles below the goal.
+    for (const FaceHandle f : faces_) {
+      if (face_shape(mesh_, f) >= goal_) continue;
       for (const VertexHandle v : mesh_.fv_range(f)) {
         char& s = seen[static_cast<std::size_t>(v.idx())];
         if (s) continue;
         s = 1;
         candidates.push_back(v);
       }
+    }
     std::size_t moves = 0;
     for (const VertexHandle v : candidates) moves += try_move(v) ? 1 : 0;
     return moves;
@@ -124,11 +156,8 @@ class Patch {
     const std::vector<FaceHandle> snapshot = faces_;
     for (const FaceHandle f : snapshot) {
       const auto p = face_points(mesh_, f);
-      if (triangle_min_angle(p[0], p[1], p[2]) >= goal_) continue;
-      const double largest =
-          std::max({corner_angle(p[0], p[1], p[2]), corner_angle(p[1], p[2], p[0]),
-                    corner_angle(p[2], p[0], p[1])});
-      if (largest > cap_) continue;
+      if (triangle_shape(p[0], p[1], p[2]) >= goal_) continue;
+      if (largest_angle_cos(p[0], p[1], p[2]) < cap_cos_) continue;
       HalfedgeHandle longest;
       double length = 0;
       for (const HalfedgeHandle h : mesh_.fh_range(f)) {
@@ -151,18 +180,18 @@ class Patch {
       // not make the worst of the two triangles worse. A patch to be faired places it anew.
       const std::array<std::array<Vec3, 3>, 4> halves{
           {{a, middle, c}, {middle, b, c}, {b, middle, d}, {middle, a, d}}};
-      double after = std::numbers::pi;
+      double after = 1.0;
       Vec3 first(0, 0, 0);
       bool movable = true;
       for (const auto& t : halves) {
-        after = std::min(after, triangle_min_angle(t[0], t[1], t[2]));
+        after = std::min(after, triangle_shape(t[0], t[1], t[2]));
         const Vec3 n = OpenMesh::cross(t[1] - t[0], t[2] - t[0]).normalize_cond();
         if (first.norm() == 0)
           first = n;
         else if (options_.keep_surface)
           movable = movable && OpenMesh::dot(first, n) >= turn_cos_;
       }
-      const double before = std::min(triangle_min_angle(a, b, c), triangle_min_angle(b, a, d));
+      const double before = std::min(triangle_shape(a, b, c), triangle_shape(b, a, d));
       if (!movable && after < before) continue;
       const VertexHandle v = mesh_.split(e, middle);
       new_vertices_.push_back(v);
@@ -186,8 +215,8 @@ class Patch {
     const Vec3& pj = mesh_.point(mesh_.to_vertex_handle(h0));
     const Vec3& pk = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h0)));
     const Vec3& pm = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h1)));
-    const double before = std::min(triangle_min_angle(pi, pj, pk), triangle_min_angle(pj, pi, pm));
-    const double after = std::min(triangle_min_angle(pk, pi, pm), triangle_min_angle(pm, pj, pk));
+    const double before = std::min(triangle_shape(pi, pj, pk), triangle_shape(pj, pi, pm));
+    const double after = std::min(triangle_shape(pk, pi, pm), triangle_shape(pm, pj, pk));
     if (!(after > before + 1e-9)) return false;
     // A flat patch keeps its surface: the two diagonals of the quad bound how far a flip moves
     // it (zero for coplanar triangles, a sliver's width for a sliver, the fold's depth across a
@@ -246,7 +275,7 @@ class Patch {
     };
     std::vector<Corner> ring;
     Vec3 centre(0, 0, 0);
-    double before = std::numbers::pi;
+    double before = 1.0;
     const Corner* worst = nullptr;
     for (const HalfedgeHandle h : mesh_.voh_range(v)) {
       if (mesh_.is_boundary(h)) return false;
@@ -258,7 +287,7 @@ class Patch {
     if (ring.size() < 3) return false;
     centre /= static_cast<double>(ring.size());
     for (const Corner& t : ring) {
-      const double a = triangle_min_angle(p, t.b, t.c);
+      const double a = triangle_shape(p, t.b, t.c);
       if (a < before) {
         before = a;
         worst = &t;
@@ -281,7 +310,7 @@ class Patch {
       if (!(step.sqrnorm() > 0)) continue;
       for (const double fraction : {1.0, 0.5, 0.25}) {
         const Vec3 q = p + fraction * step;
-        double after = std::numbers::pi;
+        double after = 1.0;
         bool valid = true;
         for (const Corner& t : ring) {
           const Vec3 n = OpenMesh::cross(t.b - q, t.c - q);
@@ -290,7 +319,7 @@ class Patch {
             valid = false;
             break;
           }
-          after = std::min(after, triangle_min_angle(q, t.b, t.c));
+          after = std::min(after, triangle_shape(q, t.b, t.c));
         }
         if (valid && after > best) {
           best = after;
@@ -311,16 +340,16 @@ class Patch {
   double fold_cos_;
   double turn_cos_;
   double flip_turn_cos_;
-  double cap_;
-  double goal_;
+  double cap_cos_;
+  double goal_;  //!< sin of the target minimum angle
 };
 
 }  // namespace
 
 double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces) {
-  double worst = std::numbers::pi;
-  for (const FaceHandle f : faces) worst = std::min(worst, face_min_angle(mesh, f));
-  return worst / kRadian;
+  double worst = 1.0;
+  for (const FaceHandle f : faces) worst = std::min(worst, face_shape(mesh, f));
+  return faces.empty() ? 180.0 : shape_to_degrees(worst);
 }
 
 PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
@@ -329,12 +358,12 @@ PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& pa
   PatchQualityReport report;
   if (patch_faces.empty()) return report;
   Patch patch(mesh, patch_faces, new_vertices, options);
-  report.min_angle_before_deg = patch.min_angle() / kRadian;
+  report.min_angle_before_deg = shape_to_degrees(patch.min_shape());
   for (int round = 0; round < options.max_rounds; ++round) {
     report.rounds = round + 1;
     report.flips += patch.flip_pass();
     report.moves += patch.smooth_pass();
-    if (patch.min_angle() >= patch.goal()) break;
+    if (patch.min_shape() >= patch.goal()) break;
     const std::size_t splits = options.bisect ? patch.split_pass() : 0;
     report.splits += splits;
     if (splits == 0) {
@@ -345,7 +374,7 @@ PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& pa
   // Settle the last bisections (and any round cut short by the cap).
   report.flips += patch.flip_pass();
   report.moves += patch.smooth_pass();
-  report.min_angle_after_deg = patch.min_angle() / kRadian;
+  report.min_angle_after_deg = shape_to_degrees(patch.min_shape());
   return report;
 }
 
