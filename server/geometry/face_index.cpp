@@ -24,6 +24,7 @@ FaceIndex::FaceIndex(const Mesh& mesh) {
   // Cells the size of a typical face's box: most faces fall into one to eight of them.
   cell_size_ = std::max(*middle, 1e-300);
   stamp_.assign(mesh.n_faces(), 0);
+  boxes_.resize(mesh.n_faces());
   cells_.reserve(2 * mesh.n_faces() + 1);
   for (const FaceHandle f : mesh.faces()) file(face_box(mesh, f), f.idx());
 }
@@ -34,7 +35,22 @@ void FaceIndex::insert(const Mesh& mesh, FaceHandle f) {
   file(box, f.idx());
 }
 
+FaceIndex::FloatBox FaceIndex::rounded(const Box3& box) {
+  FloatBox out;
+  for (int k = 0; k < 3; ++k) {
+    float lo = static_cast<float>(box.min()[k]), hi = static_cast<float>(box.max()[k]);
+    if (static_cast<double>(lo) > box.min()[k]) lo = std::nextafter(lo, -HUGE_VALF);
+    if (static_cast<double>(hi) < box.max()[k]) hi = std::nextafter(hi, HUGE_VALF);
+    out.lo[k] = lo;
+    out.hi[k] = hi;
+  }
+  return out;
+}
+
 void FaceIndex::file(const Box3& box, int face) {
+  const auto i = static_cast<std::size_t>(face);
+  if (i >= boxes_.size()) boxes_.resize(i + 1 + boxes_.size() / 2);
+  boxes_[i] = rounded(box);
   const Cell lo = cell_of(box.min()), hi = cell_of(box.max());
   const double cells = static_cast<double>(hi[0] - lo[0] + 1) *
                        static_cast<double>(hi[1] - lo[1] + 1) *

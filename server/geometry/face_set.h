@@ -1,31 +1,25 @@
 #pragma once
 
 //! \file face_set.h
-//! \brief Membership of faces in a patch, indexed by face index (grows as faces are added).
+//! \brief Membership of faces in a patch (local_map.h: costs what the patch costs, not the mesh).
 
 #include <vector>
 
+#include "server/geometry/local_map.h"
 #include "server/geometry/mesh.h"
 
 namespace touchmend::geometry {
 
 class FaceSet {
  public:
-  explicit FaceSet(const std::vector<FaceHandle>& faces) {
+  explicit FaceSet(const std::vector<FaceHandle>& faces) : member_(faces.size() + 16) {
     for (const FaceHandle f : faces) insert(f);
   }
-  void insert(FaceHandle f) {
-    const auto i = static_cast<std::size_t>(f.idx());
-    if (i >= member_.size()) member_.resize(i + 1 + member_.size() / 2, 0);
-    member_[i] = 1;
-  }
-  bool contains(FaceHandle f) const {
-    const auto i = static_cast<std::size_t>(f.idx());
-    return f.is_valid() && i < member_.size() && member_[i] != 0;
-  }
+  void insert(FaceHandle f) { member_.insert(f.idx()); }
+  bool contains(FaceHandle f) const { return f.is_valid() && member_.contains(f.idx()); }
 
  private:
-  std::vector<char> member_;
+  LocalSet member_;
 };
 
 }  // namespace touchmend::geometry

@@ -11,6 +11,7 @@
 #include "server/geometry/bvh.h"
 #include "server/geometry/intersection.h"
 #include "server/geometry/liepa_triangulation.h"
+#include "server/geometry/local_map.h"
 #include "server/geometry/mesh_intersections.h"
 #include "server/geometry/piecewise_split.h"
 #include "server/geometry/planar_triangulation.h"
@@ -275,28 +276,22 @@ double dihedral_deg(const Mesh& mesh, EdgeHandle e) {
 //! surface bends a little at every edge (median of several degrees on the shared cases).
 double median_dihedral_near(const Mesh& mesh, const Hole& hole) {
   std::vector<VertexHandle> ring(hole.loop.begin(), hole.loop.end());
-  std::vector<char> seen_vertex(mesh.n_vertices(), 0);
-  for (const VertexHandle v : ring) seen_vertex[static_cast<std::size_t>(v.idx())] = 1;
+  LocalSet seen_vertex(8 * ring.size());
+  for (const VertexHandle v : ring) seen_vertex.insert(v.idx());
   std::size_t begin = 0;
   for (int r = 0; r < 2; ++r) {
     const std::size_t end = ring.size();
     for (std::size_t i = begin; i < end; ++i)
-      for (const VertexHandle w : mesh.vv_range(ring[i])) {
-        char& s = seen_vertex[static_cast<std::size_t>(w.idx())];
-        if (s) continue;
-        s = 1;
-        ring.push_back(w);
-      }
+      for (const VertexHandle w : mesh.vv_range(ring[i]))
+        if (seen_vertex.insert(w.idx())) ring.push_back(w);
     begin = end;
   }
   std::vector<double> angles;
-  std::vector<char> seen_edge(mesh.n_edges(), 0);
+  LocalSet seen_edge(4 * ring.size());
   for (const VertexHandle v : ring)
     for (const HalfedgeHandle h : mesh.voh_range(v)) {
       const EdgeHandle e = mesh.edge_handle(h);
-      char& s = seen_edge[static_cast<std::size_t>(e.idx())];
-      if (s || mesh.is_boundary(e)) continue;
-      s = 1;
+      if (mesh.is_boundary(e) || !seen_edge.insert(e.idx())) continue;
       angles.push_back(dihedral_deg(mesh, e));
     }
   if (angles.empty()) return 0.0;
@@ -505,25 +500,26 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
   }
   // Each region's free vertices are those whose faces all lie in it: the new vertices inside
   // it (a vertex on a curve borders two regions and stays where the split put it).
-  std::vector<int> piece_of;
+  // Region of each patch face, stored as region + 1 (0: not in the patch).
+  LocalMap<int> piece_of;
   const auto index_pieces = [&] {
-    piece_of.assign(mesh.n_faces(), -1);
+    piece_of = LocalMap<int>(faces.size() * 2 + 16);
     for (std::size_t q = 0; q < pieces; ++q)
-      for (const FaceHandle f : piece_faces[q])
-        piece_of[static_cast<std::size_t>(f.idx())] = static_cast<int>(q);
+      for (const FaceHandle f : piece_faces[q]) piece_of[f.idx()] = static_cast<int>(q) + 1;
+  };
+  const auto region_of = [&](FaceHandle f) {
+    const int* p = piece_of.find(f.idx());
+    return p ? *p - 1 : -1;
   };
   const auto free_vertices_of = [&](std::size_t p) {
     std::vector<VertexHandle> out;
-    std::vector<char> seen(mesh.n_vertices(), 0);
+    LocalSet seen(2 * piece_faces[p].size() + 16);
     for (const FaceHandle f : piece_faces[p])
       for (const VertexHandle v : mesh.fv_range(f)) {
-        char& s = seen[static_cast<std::size_t>(v.idx())];
-        if (s) continue;
-        s = 1;
-        if (mesh.is_boundary(v)) continue;
+        if (!seen.insert(v.idx()) || mesh.is_boundary(v)) continue;
         bool inside = true;
         for (const FaceHandle g : mesh.vf_range(v))
-          inside = inside && piece_of[static_cast<std::size_t>(g.idx())] == static_cast<int>(p);
+          inside = inside && region_of(g) == static_cast<int>(p);
         if (inside) out.push_back(v);
       }
     return out;
@@ -535,9 +531,9 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
       if (free.empty()) continue;
       FairingOptions fo = options.fairing;
       if (pieces > 1)
-        fo.ignore_face = [&piece_of, p](FaceHandle f) {
-          const auto i = static_cast<std::size_t>(f.idx());
-          return i < piece_of.size() && piece_of[i] >= 0 && piece_of[i] != static_cast<int>(p);
+        fo.ignore_face = [&region_of, p](FaceHandle f) {
+          const int q = region_of(f);
+          return q >= 0 && q != static_cast<int>(p);
         };
       const FairingReport fr = fair_vertices(mesh, free, fo);
       if (!fr.ok) return "fairing failed (" + fr.failure + ")";

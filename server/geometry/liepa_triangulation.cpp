@@ -129,6 +129,9 @@ LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop,
         const Weight& left = W[at(i, m)];
         const Weight& right = W[at(m, k)];
         if (!(left.angle < kInvalid.angle) || !(right.angle < kInvalid.angle)) continue;
+        // The combined weight's angle is at least the larger of the two parts': when that
+        // already loses to the best so far, this candidate cannot win (no triangle to build).
+        if (std::max(left.angle, right.angle) > best.angle + Weight::kAngleTie) continue;
         double area;
         const Vec3 nrm = unit_normal(loop[i], loop[m], loop[k], area);
         if (area <= min_area) continue;

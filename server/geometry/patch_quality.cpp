@@ -8,6 +8,7 @@
 
 #include "server/geometry/face_set.h"
 #include "server/geometry/intersection.h"
+#include "server/geometry/local_map.h"
 
 namespace touchmend::geometry {
 namespace {
@@ -92,12 +93,11 @@ class Patch {
   //! Flips interior edges while the smaller angle of the two triangles grows.
   std::size_t flip_pass() {
     std::deque<EdgeHandle> queue;
-    std::vector<char> queued(mesh_.n_edges(), 0);
+    LocalMap<char> queued(2 * faces_.size() + 16);
     const auto push = [&](EdgeHandle e) {
-      const auto i = static_cast<std::size_t>(e.idx());
-      if (i >= queued.size()) queued.resize(mesh_.n_edges(), 0);
-      if (queued[i] || !interior(e)) return;
-      queued[i] = 1;
+      char& q = queued[e.idx()];
+      if (q || !interior(e)) return;
+      q = 1;
       queue.push_back(e);
     };
     // Only the edges of the triangles below the goal; a flip queues the edges around it.
@@ -109,7 +109,7 @@ class Patch {
     while (!queue.empty() && budget-- > 0) {
       const EdgeHandle e = queue.front();
       queue.pop_front();
-      queued[static_cast<std::size_t>(e.idx())] = 0;
+      queued[e.idx()] = 0;
       if (!try_flip(e)) continue;
       ++flips;
       for (int side = 0; side < 2; ++side) {
@@ -125,16 +125,12 @@ class Patch {
   //! smallest angle around it grows.
   std::size_t smooth_pass() {
     std::vector<VertexHandle> candidates;
-    std::vector<char> seen(mesh_.n_vertices(), 0);
+    LocalSet seen(faces_.size() + 16);
     // Only the corners of the triangles below the goal.
     for (const FaceHandle f : faces_) {
       if (face_shape(mesh_, f) >= goal_) continue;
-      for (const VertexHandle v : mesh_.fv_range(f)) {
-        char& s = seen[static_cast<std::size_t>(v.idx())];
-        if (s) continue;
-        s = 1;
-        candidates.push_back(v);
-      }
+      for (const VertexHandle v : mesh_.fv_range(f))
+        if (seen.insert(v.idx())) candidates.push_back(v);
     }
     std::size_t moves = 0;
     for (const VertexHandle v : candidates) moves += try_move(v) ? 1 : 0;

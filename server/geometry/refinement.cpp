@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "server/geometry/face_set.h"
+#include "server/geometry/local_map.h"
 
 namespace touchmend::geometry {
 namespace {
@@ -63,12 +64,12 @@ std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, con
   // the work follows the flips instead of the patch size times the passes. The attempt budget
   // equals what max_passes full passes would have made (relaxing in 3D need not terminate).
   std::deque<EdgeHandle> queue;
-  std::vector<char> queued(mesh.n_edges(), 0);
+  LocalMap<char> queued(2 * faces.size() + 16);
   for (const FaceHandle f : faces)
     for (const HalfedgeHandle h : mesh.fh_range(f)) {
       const EdgeHandle e = mesh.edge_handle(h);
-      if (queued[static_cast<std::size_t>(e.idx())]) continue;
-      queued[static_cast<std::size_t>(e.idx())] = 1;
+      if (queued[e.idx()]) continue;
+      queued[e.idx()] = 1;
       queue.push_back(e);
     }
   std::size_t budget = static_cast<std::size_t>(std::max(1, max_passes)) * queue.size();
@@ -77,7 +78,7 @@ std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, con
     --budget;
     const EdgeHandle e = queue.front();
     queue.pop_front();
-    queued[static_cast<std::size_t>(e.idx())] = 0;
+    queued[e.idx()] = 0;
     if (!relax_edge(mesh, e, patch, keep_surface)) continue;
     ++flips;
     for (int side = 0; side < 2; ++side) {
@@ -85,8 +86,8 @@ std::size_t relax_pass_all(Mesh& mesh, const std::vector<FaceHandle>& faces, con
       for (const HalfedgeHandle around :
            {mesh.next_halfedge_handle(h), mesh.prev_halfedge_handle(h)}) {
         const EdgeHandle n = mesh.edge_handle(around);
-        if (queued[static_cast<std::size_t>(n.idx())]) continue;
-        queued[static_cast<std::size_t>(n.idx())] = 1;
+        if (queued[n.idx()]) continue;
+        queued[n.idx()] = 1;
         queue.push_back(n);
       }
     }
@@ -107,19 +108,18 @@ RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
                               const RefinementOptions& options) {
   RefinementReport report;
   FaceSet patch(patch_faces);
-  std::vector<double> sigma(mesh.n_vertices(), 0.0);
-  auto sigma_of = [&](VertexHandle v) -> double& {
-    const auto i = static_cast<std::size_t>(v.idx());
-    if (i >= sigma.size()) sigma.resize(i + 1 + sigma.size() / 2, 0.0);
-    return sigma[i];
+  LocalMap<double> sigma(2 * patch_faces.size() + 16);
+  // Read by value: an insertion may move the map's storage.
+  auto sigma_of = [&](VertexHandle v) {
+    const double* s = sigma.find(v.idx());
+    return s ? *s : 0.0;
   };
   // Scale attributes: mean length of the edges at each patch vertex that are not interior to
   // the patch (Liepa; ALGORITHMS.md §2.4 discrepancy 3). Vertices with only interior edges
   // (chord vertices of a piecewise split) use all their edges.
   for (const FaceHandle f : patch_faces)
     for (const VertexHandle v : mesh.fv_range(f)) {
-      double& s = sigma_of(v);
-      if (s > 0) continue;
+      if (sigma_of(v) > 0) continue;
       double sum = 0, sum_all = 0;
       int count = 0, count_all = 0;
       for (const HalfedgeHandle h : mesh.voh_range(v)) {
@@ -131,7 +131,7 @@ RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
           ++count;
         }
       }
-      s = count > 0 ? sum / count : (count_all > 0 ? sum_all / count_all : 0.0);
+      sigma[v.idx()] = count > 0 ? sum / count : (count_all > 0 ? sum_all / count_all : 0.0);
     }
   const double alpha = options.density_factor;
   for (int round = 0; round < options.max_rounds; ++round) {
@@ -156,7 +156,7 @@ RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
       k = 0;
       for (const HalfedgeHandle h : mesh.fh_range(f)) old_edges[k++] = mesh.edge_handle(h);
       const VertexHandle nv = mesh.split(f, c);
-      sigma_of(nv) = sc;
+      sigma[nv.idx()] = sc;
       new_vertices.push_back(nv);
       for (const FaceHandle nf : mesh.vf_range(nv))
         if (!patch.contains(nf)) {
