@@ -5,10 +5,12 @@
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
+#include <unordered_set>
 
 #include <fmt/format.h>
 
 #include "server/geometry/bvh.h"
+#include "server/geometry/ear_clipping.h"
 #include "server/geometry/intersection.h"
 #include "server/geometry/liepa_triangulation.h"
 #include "server/geometry/local_map.h"
@@ -84,9 +86,51 @@ struct TopologyPatch {
   std::vector<int> piece_of_triangle;  //!< CreaseSplit: the region of each triangle
 };
 
+//! Indices (into \p triangles) of the triangles over the loop that intersect a face of the
+//! mesh or another of them.
+std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& hole,
+                                                const LoopData& loop, const FaceIndex& index,
+                                                const std::vector<std::array<int, 3>>& triangles) {
+  std::vector<TrianglePoints> points(triangles.size());
+  std::vector<std::array<int, 3>> ids(triangles.size());
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    for (std::size_t c = 0; c < 3; ++c) {
+      const auto corner = static_cast<std::size_t>(triangles[t][c]);
+      points[t][c] = loop.points[corner];
+      ids[t][c] = hole.loop[corner].idx();
+    }
+  std::vector<char> bad(triangles.size(), 0);
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    index.for_each_in_box(mesh, triangle_box(points[t]), [&](FaceHandle f) {
+      if (bad[t]) return;
+      TrianglePoints other;
+      std::array<int, 3> other_ids;
+      int k = 0;
+      for (const VertexHandle v : mesh.fv_range(f)) {
+        other[static_cast<std::size_t>(k)] = mesh.point(v);
+        other_ids[static_cast<std::size_t>(k++)] = v.idx();
+      }
+      if (triangles_intersect(points[t], ids[t], other, other_ids)) bad[t] = 1;
+    });
+    for (std::size_t u = t + 1; u < triangles.size(); ++u)
+      if (triangle_box(points[t]).intersects(triangle_box(points[u])) &&
+          triangles_intersect(points[t], ids[t], points[u], ids[u]))
+        bad[t] = bad[u] = 1;
+  }
+  std::vector<std::size_t> out;
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    if (bad[t]) out.push_back(t);
+  return out;
+}
+
+//! \p avoid_intersections (the 3D triangulation, for a patch that will stay flat, so keeps its
+//! triangles' surface): the triangles of the minimum-dihedral solution that intersect the mesh
+//! or each other are forbidden and the problem is solved again, until a solution is clean (ours:
+//! Liepa's weight knows nothing of the surroundings, CGAL's fills intersect the mesh where ours
+//! would be refused).
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
                           const LoopData& loop, const FillOptions& options, const FaceIndex& index,
-                          const HoleCreasePlan* creases) {
+                          const HoleCreasePlan* creases, bool avoid_intersections = false) {
   TopologyPatch out;
   if (method == FillMethod::CreaseSplit) {
     if (creases == nullptr || creases->curves.empty()) {
@@ -127,14 +171,51 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
     out.angles_closed = t.angles_closed;
     return out;
   }
-  if (method == FillMethod::MinimumWeight3d) {
-    LiepaTriangulationOptions dp;
-    dp.max_vertices = options.max_dp_vertices;
-    LiepaTriangulation t = triangulate_min_dihedral(loop.points, loop.opposite, loop.blocked, dp);
+  if (method == FillMethod::EarClipping) {
+    EarClippingInput in;
+    in.loop = loop.points;
+    in.opposite = loop.opposite;
+    in.blocked = loop.blocked;
+    in.crosses_mesh = [&](const std::array<int, 3>& corners) {
+      return !intersecting_triangles(mesh, hole, loop, index, {corners}).empty();
+    };
+    EarClipping t = clip_ears(in);
     out.ok = t.ok;
     out.failure = t.failure;
     out.triangles = std::move(t.triangles);
     return out;
+  }
+  if (method == FillMethod::MinimumWeight3d) {
+    LiepaTriangulationOptions dp;
+    dp.max_vertices = options.max_dp_vertices;
+    std::unordered_set<std::uint64_t> forbidden;
+    dp.forbidden = &forbidden;
+    const int n = static_cast<int>(loop.points.size());
+    // Rounds shrink with the cubic cost of a solve: about 4·10^7 candidate triangles in all.
+    const int rounds = std::clamp(static_cast<int>(4e7 / (static_cast<double>(n) * n * n)), 1,
+                                  std::max(1, options.max_avoiding_rounds));
+    for (int round = 0;; ++round) {
+      LiepaTriangulation t = triangulate_min_dihedral(loop.points, loop.opposite, loop.blocked, dp);
+      out.ok = t.ok;
+      out.failure = t.failure;
+      out.triangles = std::move(t.triangles);
+      if (!out.ok || !avoid_intersections) return out;
+      const std::vector<std::size_t> bad =
+          intersecting_triangles(mesh, hole, loop, index, out.triangles);
+      if (bad.empty()) return out;
+      if (round + 1 >= rounds) {
+        out.ok = false;
+        out.failure = fmt::format(
+            "after {} rounds that forbade the triangles crossing the mesh, {} still cross it",
+            round + 1, bad.size());
+        return out;
+      }
+      for (const std::size_t b : bad) {
+        std::array<int, 3> c = out.triangles[b];
+        std::sort(c.begin(), c.end());
+        forbidden.insert(forbidden_key(c[0], c[1], c[2], n));
+      }
+    }
   }
   // Piecewise: chords must clear the surrounding surface. Collect the faces near the hole once.
   Box3 region;
@@ -416,6 +497,8 @@ const char* to_string(FillMethod method) {
       return "minimum-weight-3d";
     case FillMethod::CreaseSplit:
       return "crease-split";
+    case FillMethod::EarClipping:
+      return "ear-clipping";
   }
   return "?";
 }
@@ -637,6 +720,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     methods = {FillMethod::Piecewise, FillMethod::MinimumWeight3d};
   if (creases && !creases->curves.empty() && options.methods.empty())
     methods.insert(methods.begin(), FillMethod::CreaseSplit);
+  if (options.methods.empty()) methods.push_back(FillMethod::EarClipping);
 
   std::vector<std::string> failures;
   std::vector<std::string> shape_warnings;
@@ -645,20 +729,45 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   // an intersection) is built again flat from the same triangulation in the second pass, after
   // the other methods had their faired try (a faired patch from the next method is closer to a
   // curved surface than a flat one from this).
-  std::vector<std::optional<TopologyPatch>> topologies(methods.size());
+  // A flat 3D triangulation avoids the mesh (its own cache entry: a faired one need not).
+  std::vector<std::optional<TopologyPatch>> topologies(2 * methods.size());
   std::vector<char> dead(methods.size(), 0);
   std::vector<char> refused_fair(methods.size(), 0);
-  for (int pass = 0; pass < 2; ++pass) {
-    for (std::size_t m = 0; m < methods.size(); ++m) {
+  const auto wants_fair = [&](FillMethod method) {
+    return method == FillMethod::CreaseSplit
+               ? options.creases.fair_pieces.value_or(decision.crease_regions == PatchShape::Fair)
+               : shape == PatchShape::Fair;
+  };
+  // The attempts in order: (method, faired, a flat fallback). Ear clipping, the last resort,
+  // comes after every other method's flat fallback.
+  struct Attempt {
+    std::size_t method;
+    bool fair;
+    bool fallback;
+  };
+  std::vector<Attempt> attempts;
+  const auto last_resort = [&](std::size_t m) {
+    return methods[m] == FillMethod::EarClipping && options.methods.empty();
+  };
+  for (std::size_t m = 0; m < methods.size(); ++m)
+    if (!last_resort(m)) attempts.push_back({m, wants_fair(methods[m]), false});
+  for (std::size_t m = 0; m < methods.size(); ++m)
+    if (!last_resort(m) && wants_fair(methods[m])) attempts.push_back({m, false, true});
+  for (std::size_t m = 0; m < methods.size(); ++m)
+    if (last_resort(m)) {
+      if (wants_fair(methods[m])) attempts.push_back({m, true, false});
+      attempts.push_back({m, false, wants_fair(methods[m])});
+    }
+  for (const Attempt& step : attempts) {
+    {
+      const std::size_t m = step.method;
       const FillMethod method = methods[m];
-      if (dead[m]) continue;
-      const bool want_fair =
-          method == FillMethod::CreaseSplit
-              ? options.creases.fair_pieces.value_or(decision.crease_regions == PatchShape::Fair)
-              : shape == PatchShape::Fair;
-      if (pass == 1 && !refused_fair[m]) continue;
-      const bool fair = pass == 0 && want_fair;
-      if (!topologies[m]) {
+      if (dead[m] || (step.fallback && !refused_fair[m])) continue;
+      const bool fair = step.fair;
+      const int pass = step.fallback ? 1 : 0;
+      const bool avoid = !fair && method == FillMethod::MinimumWeight3d;
+      std::optional<TopologyPatch>& topology = topologies[2 * m + (avoid ? 1 : 0)];
+      if (!topology) {
         if (method == FillMethod::MinimumWeight3d && hole.loop.size() > options.max_dp_vertices) {
           failures.push_back(fmt::format("{}: {} boundary vertices exceed its limit of {}",
                                          to_string(method), hole.loop.size(),
@@ -666,15 +775,15 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
           dead[m] = 1;
           continue;
         }
-        topologies[m] =
-            triangulate(method, mesh, hole, loop, options, index, creases ? &*creases : nullptr);
-        if (!topologies[m]->ok) {
-          failures.push_back(fmt::format("{}: {}", to_string(method), topologies[m]->failure));
+        topology = triangulate(method, mesh, hole, loop, options, index,
+                               creases ? &*creases : nullptr, avoid);
+        if (!topology->ok) {
+          failures.push_back(fmt::format("{}: {}", to_string(method), topology->failure));
           dead[m] = 1;
           continue;
         }
       }
-      const TopologyPatch& patch = *topologies[m];
+      const TopologyPatch& patch = *topology;
       std::vector<FaceHandle> faces;
       std::vector<VertexHandle> vertices;
       std::vector<int> face_pieces;

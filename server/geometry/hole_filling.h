@@ -39,7 +39,7 @@ enum class PatchShape { Flat, Fair, Auto };
 const char* to_string(PatchShape shape);
 bool parse_patch_shape(std::string_view text, PatchShape& shape);
 
-enum class FillMethod { Planar, Piecewise, MinimumWeight3d, CreaseSplit };
+enum class FillMethod { Planar, Piecewise, MinimumWeight3d, CreaseSplit, EarClipping };
 const char* to_string(FillMethod method);
 
 //! Sharp-edge retaining without a device: `Auto` finds the creases that cross each hole and
@@ -54,9 +54,12 @@ struct FillOptions {
   double close_angle = 5.0 * std::numbers::pi / 9.0;  //!< seed 000 §3.4.2
   FairingOptions fairing;
   std::size_t max_dp_vertices = 400;  //!< size limit of the O(n^3) 3D triangulation
+  //! A flat 3D triangulation whose triangles cross the mesh is solved again without them, at
+  //! most this many times (each solve is O(n^3), so large loops get fewer rounds).
+  int max_avoiding_rounds = 16;
   bool check_intersections = true;
   //! Methods to try in order; empty = automatic (simple: planar then 3D; complex: piecewise
-  //! then 3D).
+  //! then 3D; ear clipping, flat, when every other method's patch crosses the mesh).
   std::vector<FillMethod> methods;
   //! Auto shape: the patch stays flat when every triangle around the boundary is within this
   //! angle of the hole's plane and the boundary lies in that plane (within 1% of its size).

@@ -132,6 +132,7 @@ LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop,
         // The combined weight's angle is at least the larger of the two parts': when that
         // already loses to the best so far, this candidate cannot win (no triangle to build).
         if (std::max(left.angle, right.angle) > best.angle + Weight::kAngleTie) continue;
+        if (options.forbidden && options.forbidden->count(forbidden_key(i, m, k, n))) continue;
         double area;
         const Vec3 nrm = unit_normal(loop[i], loop[m], loop[k], area);
         if (area <= min_area) continue;

@@ -5,8 +5,10 @@
 //! Sharir): the fallback for holes that no plane can project (ALGORITHMS.md §6.2).
 
 #include <array>
+#include <cstdint>
 #include <span>
 #include <string>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -16,7 +18,18 @@ namespace touchmend::geometry {
 
 struct LiepaTriangulationOptions {
   std::size_t max_vertices = 400;  //!< O(n^3) time, O(n^2) memory: refuse larger loops
+  //! Triangles (i, m, k), i < m < k, that may not be used (ours: those found to intersect the
+  //! mesh on an earlier solve; see forbidden_key).
+  const std::unordered_set<std::uint64_t>* forbidden = nullptr;
 };
+
+//! Key of triangle (i, m, k), i < m < k, of an n-vertex loop in
+//! LiepaTriangulationOptions::forbidden.
+inline std::uint64_t forbidden_key(int i, int m, int k, int n) {
+  const auto N = static_cast<std::uint64_t>(n);
+  return (static_cast<std::uint64_t>(i) * N + static_cast<std::uint64_t>(m)) * N +
+         static_cast<std::uint64_t>(k);
+}
 
 struct LiepaTriangulation {
   bool ok = false;

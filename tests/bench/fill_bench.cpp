@@ -248,8 +248,11 @@ int main(int argc, char** argv) {
         label = th.label;
         const double spacing = 0.002 * w.diagonal;
         const auto d = geo::surface_distance(tris, th.truth, spacing);
-        tm_h = fmt::format("{:.2f}", 1000 * d.hausdorff / w.diagonal);
-        tm_mean = fmt::format("{:.2f}", 1000 * d.mean / w.diagonal);
+        // An open hole has no distance (and is no win): "-".
+        if (h.filled && d.valid) {
+          tm_h = fmt::format("{:.2f}", 1000 * d.hausdorff / w.diagonal);
+          tm_mean = fmt::format("{:.2f}", 1000 * d.mean / w.diagonal);
+        }
         if (!cgal_fair_tris[i].empty())
           fair_mean = fmt::format(
               "{:.2f}",
@@ -263,8 +266,9 @@ int main(int argc, char** argv) {
           best = fmt::format("{:.2f}", it->second.best_mean);
           ++holes_with_truth;
           // Compare at the table's printed precision (two decimals).
-          if (std::round(100 * 1000 * d.mean / w.diagonal) <=
-              std::round(100 * it->second.best_mean))
+          if (h.filled && d.valid &&
+              std::round(100 * 1000 * d.mean / w.diagonal) <=
+                  std::round(100 * it->second.best_mean))
             ++mean_at_most_best;
         }
       }

@@ -3,8 +3,10 @@
 // every filled hole's mean distance to the removed surface within 1.6 x CGAL refine+fair's + 2,
 // its Hausdorff distance within 2 x CGAL's + 5 — loose enough for the auto shape's choices
 // (which beat CGAL on some holes and lose on others, see README), tight enough to catch a fill
-// that bulges or misses the surface. The two holes that no method can close without
-// intersecting the mesh (listed below) may stay open, but only with a reason.
+// that bulges or misses the surface. Every hole closes: the two whose minimum-weight
+// triangulations all cross the surrounding surface (couplingdown_sharp #1, rocker-arm_xl #0;
+// CGAL's fills of them intersect the mesh) are closed by the intersection-avoiding 3D
+// triangulation and by ear clipping.
 
 #include <set>
 
@@ -17,11 +19,6 @@
 
 namespace touchmend::geometry {
 namespace {
-
-// Holes where every triangulation we can build intersects the surrounding mesh (CGAL's
-// fills of these intersect it too: BASELINE.md lists 7 and 5 self-intersecting pairs).
-const std::set<std::pair<std::string, std::string>> kMayStayOpen = {{"couplingdown_sharp", "1"},
-                                                                    {"rocker-arm_xl", "0"}};
 
 class HoleCases : public ::testing::TestWithParam<std::string> {};
 
@@ -51,11 +48,7 @@ TEST_P(HoleCases, FillsCloseToGroundTruthWithoutBreakingTheMesh) {
       if (h.hole_id == *id) r = &h;
     ASSERT_NE(r, nullptr);
     const std::pair<std::string, std::string> key{c->name, std::to_string(ch.id)};
-    if (!r->filled) {
-      EXPECT_TRUE(kMayStayOpen.count(key)) << "hole " << ch.id << " left open: " << r->reason;
-      EXPECT_FALSE(r->reason.empty());
-      continue;
-    }
+    ASSERT_TRUE(r->filled) << "hole " << ch.id << " left open: " << r->reason;
     const testing::HoleScore score = testing::score_fill(mesh, *r, *c, ch);
     const auto anchor = baseline.find(key);
     ASSERT_NE(anchor, baseline.end())
@@ -116,11 +109,8 @@ TEST_P(SharpCases, RetainedCreasesAreCloserToGroundTruth) {
     for (const auto& h : sharp.holes) r = h.hole_id == *id ? &h : r;
     ASSERT_TRUE(p && r);
     const std::pair<std::string, std::string> key{c->name, std::to_string(ch.id)};
-    if (!r->filled) {
-      EXPECT_TRUE(kMayStayOpen.count(key)) << "hole " << ch.id << " left open: " << r->reason;
-      continue;
-    }
-    ASSERT_TRUE(p->filled);
+    ASSERT_TRUE(r->filled) << "hole " << ch.id << " left open: " << r->reason;
+    ASSERT_TRUE(p->filled) << "hole " << ch.id << " left open: " << p->reason;
     const auto s_plain = testing::score_fill(plain_mesh, *p, *c, ch);
     const auto s_sharp = testing::score_fill(sharp_mesh, *r, *c, ch);
     const std::string where = c->name + " hole " + std::to_string(ch.id) + " (" + r->creases + ")";

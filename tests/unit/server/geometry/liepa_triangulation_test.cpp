@@ -1,5 +1,6 @@
 #include "server/geometry/liepa_triangulation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -72,6 +73,33 @@ TEST(MinimumDihedralTriangulation, RefusesOversizedAndBlockedLoops) {
     const bool has0 = tri[0] == 0 || tri[1] == 0 || tri[2] == 0;
     const bool has2 = tri[0] == 2 || tri[1] == 2 || tri[2] == 2;
     EXPECT_FALSE(has0 && has2);
+  }
+}
+
+TEST(MinimumDihedralTriangulation, ForbiddenTrianglesAreNeverUsed) {
+  // A planar 10-gon: forbid every triangle of the first solution and solve again; the second
+  // solution is a different full triangulation that uses none of them.
+  std::vector<Vec3> loop, opposite;
+  const int n = 10;
+  for (int i = 0; i < n; ++i)
+    loop.emplace_back(std::cos(2 * std::numbers::pi * i / n),
+                      std::sin(2 * std::numbers::pi * i / n), 0);
+  for (int i = 0; i < n; ++i) opposite.push_back(0.5 * (loop[i] + loop[(i + 1) % n]) * 1.5);
+  const auto first = triangulate_min_dihedral(loop, opposite, {});
+  ASSERT_TRUE(first.ok) << first.failure;
+  std::unordered_set<std::uint64_t> forbidden;
+  for (auto t : first.triangles) {
+    std::sort(t.begin(), t.end());
+    forbidden.insert(forbidden_key(t[0], t[1], t[2], n));
+  }
+  LiepaTriangulationOptions options;
+  options.forbidden = &forbidden;
+  const auto second = triangulate_min_dihedral(loop, opposite, {}, options);
+  ASSERT_TRUE(second.ok) << second.failure;
+  EXPECT_EQ(second.triangles.size(), static_cast<std::size_t>(n - 2));
+  for (auto t : second.triangles) {
+    std::sort(t.begin(), t.end());
+    EXPECT_EQ(forbidden.count(forbidden_key(t[0], t[1], t[2], n)), 0u);
   }
 }
 

@@ -209,7 +209,8 @@ TEST(MeshIoRobustness, RandomBytesAndTruncationsNeverCrash) {
   m.add_face(a, b, c);
   m.add_face(b, d, c);
   std::mt19937 rng(12345);
-  for (const MeshFormat format : {MeshFormat::Off, MeshFormat::Obj, MeshFormat::Ply, MeshFormat::Stl}) {
+  for (const MeshFormat format :
+       {MeshFormat::Off, MeshFormat::Obj, MeshFormat::Ply, MeshFormat::Stl}) {
     for (const bool binary : {false, true}) {
       std::string bytes;
       ASSERT_TRUE(serialize_mesh(m, format, {.binary = binary}, bytes).ok);
@@ -224,7 +225,8 @@ TEST(MeshIoRobustness, RandomBytesAndTruncationsNeverCrash) {
         EXPECT_TRUE(r.ok || !r.error.empty());
         for (const auto& t : r.soup.triangles)
           for (const auto v : t) ASSERT_LT(v, r.soup.points.size());
-        for (const auto& p : r.soup.points) ASSERT_TRUE(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]));
+        for (const auto& p : r.soup.points)
+          ASSERT_TRUE(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]));
       }
     }
     for (int trial = 0; trial < 200; ++trial) {
