@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace touchmend::geometry {
 
@@ -15,24 +16,69 @@ Box3 FaceIndex::face_box(const Mesh& mesh, FaceHandle f) {
 }
 
 FaceIndex::FaceIndex(const Mesh& mesh) {
+  std::vector<FaceHandle> all(mesh.faces().begin(), mesh.faces().end());
+  build(mesh, all);
+}
+
+FaceIndex::FaceIndex(const Mesh& mesh, std::span<const FaceHandle> faces) {
+  build(mesh, faces);
+}
+
+void FaceIndex::build(const Mesh& mesh, std::span<const FaceHandle> faces) {
+  if (faces.empty()) return;
+  std::vector<Box3> boxes;
+  boxes.reserve(faces.size());
   std::vector<double> extents;
-  extents.reserve(mesh.n_faces());
-  for (const FaceHandle f : mesh.faces()) extents.push_back(face_box(mesh, f).sizes().maxCoeff());
-  if (extents.empty()) return;
+  extents.reserve(faces.size());
+  for (const FaceHandle f : faces) {
+    boxes.push_back(face_box(mesh, f));
+    extents.push_back(boxes.back().sizes().maxCoeff());
+  }
+  // Cells the size of a typical face's box: most faces fall into one to eight of them.
   const auto middle = extents.begin() + static_cast<std::ptrdiff_t>(extents.size() / 2);
   std::nth_element(extents.begin(), middle, extents.end());
-  // Cells the size of a typical face's box: most faces fall into one to eight of them.
   cell_size_ = std::max(*middle, 1e-300);
-  stamp_.assign(mesh.n_faces(), 0);
-  boxes_.resize(mesh.n_faces());
-  cells_.reserve(2 * mesh.n_faces() + 1);
-  for (const FaceHandle f : mesh.faces()) file(face_box(mesh, f), f.idx());
+  faces_.reserve(faces.size());
+  boxes_.reserve(faces.size());
+  stamp_.reserve(faces.size());
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> entries;
+  entries.reserve(2 * faces.size());
+  for (std::size_t i = 0; i < faces.size(); ++i) {
+    const std::uint32_t slot = add_slot(faces[i], boxes[i]);
+    const Cell lo = cell_of(boxes[i].min()), hi = cell_of(boxes[i].max());
+    const double cells = static_cast<double>(hi[0] - lo[0] + 1) *
+                         static_cast<double>(hi[1] - lo[1] + 1) *
+                         static_cast<double>(hi[2] - lo[2] + 1);
+    if (!(cells <= kMaxCells)) {  // also NaN
+      unsorted_.push_back(slot);
+      continue;
+    }
+    for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
+      for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
+        for (std::int64_t z = lo[2]; z <= hi[2]; ++z) entries.emplace_back(key_of({x, y, z}), slot);
+  }
+  std::sort(entries.begin(), entries.end());
+  cell_slots_.reserve(entries.size());
+  for (std::size_t e = 0; e < entries.size(); ++e) {
+    if (e == 0 || entries[e].first != entries[e - 1].first) {
+      cell_keys_.push_back(entries[e].first);
+      cell_starts_.push_back(static_cast<std::uint32_t>(e));
+    }
+    cell_slots_.push_back(entries[e].second);
+  }
+  cell_starts_.push_back(static_cast<std::uint32_t>(entries.size()));
 }
 
 void FaceIndex::insert(const Mesh& mesh, FaceHandle f) {
-  const Box3 box = face_box(mesh, f);
-  if (!(cell_size_ > 0)) cell_size_ = std::max(box.sizes().maxCoeff(), 1e-300);  // was empty
-  file(box, f.idx());
+  unsorted_.push_back(add_slot(f, face_box(mesh, f)));
+}
+
+std::uint32_t FaceIndex::add_slot(FaceHandle f, const Box3& box) {
+  const auto slot = static_cast<std::uint32_t>(faces_.size());
+  faces_.push_back(f.idx());
+  boxes_.push_back(rounded(box));
+  stamp_.push_back(0);
+  return slot;
 }
 
 FaceIndex::FloatBox FaceIndex::rounded(const Box3& box) {
@@ -45,23 +91,6 @@ FaceIndex::FloatBox FaceIndex::rounded(const Box3& box) {
     out.hi[k] = hi;
   }
   return out;
-}
-
-void FaceIndex::file(const Box3& box, int face) {
-  const auto i = static_cast<std::size_t>(face);
-  if (i >= boxes_.size()) boxes_.resize(i + 1 + boxes_.size() / 2);
-  boxes_[i] = rounded(box);
-  const Cell lo = cell_of(box.min()), hi = cell_of(box.max());
-  const double cells = static_cast<double>(hi[0] - lo[0] + 1) *
-                       static_cast<double>(hi[1] - lo[1] + 1) *
-                       static_cast<double>(hi[2] - lo[2] + 1);
-  if (!(cells <= kMaxCells)) {  // also NaN
-    large_.push_back(face);
-    return;
-  }
-  for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
-    for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
-      for (std::int64_t z = lo[2]; z <= hi[2]; ++z) cells_[key_of({x, y, z})].push_back(face);
 }
 
 FaceIndex::Cell FaceIndex::cell_of(const Eigen::Vector3d& p) const {

@@ -1,17 +1,21 @@
 #pragma once
 
 //! \file face_index.h
-//! \brief A uniform grid over a mesh's faces for local box queries (the intersection checks of
-//! every fill), built once per mesh and kept current as faces are added.
+//! \brief A uniform grid over a set of a mesh's faces for local box queries (the intersection
+//! checks of a fill look only at the faces near its hole).
 //!
 //! \details Each face is filed under every grid cell its bounding box overlaps (cells about the
-//! size of a typical face, so most faces go into a few cells), and a query looks at the cells its
-//! box overlaps. A face whose box would cover more than kMaxCells cells (a huge facet of a coarse
-//! CAD mesh) is kept on a separate list that every query checks. Deleted faces are skipped; faces
-//! added later are filed with insert().
+//! size of a typical face, so most faces go into a few cells); the (cell, face) pairs are kept
+//! sorted by cell in two flat arrays, so building costs one sort and no allocation per cell, and
+//! a query looks up the cells its box overlaps by binary search. A face whose box would cover
+//! more than kMaxCells cells (a huge facet of a coarse CAD mesh) is on a list every query
+//! checks. Deleted faces are skipped; faces added later with insert() are checked by every query
+//! until the index is rebuilt (the fills add a patch at a time and rebuild per hole).
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
-#include <unordered_map>
+#include <span>
 #include <vector>
 
 #include "server/geometry/bvh.h"
@@ -22,8 +26,10 @@ namespace touchmend::geometry {
 class FaceIndex {
  public:
   FaceIndex() = default;
-  //! Files every non-deleted face of \p mesh. O(faces).
+  //! Files every non-deleted face of \p mesh. O(faces · log faces).
   explicit FaceIndex(const Mesh& mesh);
+  //! Files just \p faces (a neighbourhood: a fill's checks only ever look near its hole).
+  FaceIndex(const Mesh& mesh, std::span<const FaceHandle> faces);
 
   //! Files a face added after construction (a face already filed must not be filed again).
   void insert(const Mesh& mesh, FaceHandle f);
@@ -36,32 +42,33 @@ class FaceIndex {
       std::fill(stamp_.begin(), stamp_.end(), 0);
       query_ = 1;
     }
-    const auto consider = [&](int face) {
-      const auto i = static_cast<std::size_t>(face);
-      if (i >= stamp_.size()) stamp_.resize(i + 1 + stamp_.size() / 2, 0);
-      if (stamp_[i] == query_) return;
-      stamp_[i] = query_;
-      const FaceHandle f(face);
-      if (!boxes_[i].meets(box) || mesh.status(f).deleted()) return;
+    const auto consider = [&](std::uint32_t slot) {
+      if (stamp_[slot] == query_) return;
+      stamp_[slot] = query_;
+      if (!boxes_[slot].meets(box)) return;
+      const FaceHandle f(faces_[slot]);
+      if (mesh.status(f).deleted()) return;
       visit(f);
     };
-    for (const int face : large_) consider(face);
-    if (cells_.empty()) return;
-    const auto lo = cell_of(box.min()), hi = cell_of(box.max());
+    for (const std::uint32_t slot : unsorted_) consider(slot);
+    if (cell_keys_.empty()) return;
+    const Cell lo = cell_of(box.min()), hi = cell_of(box.max());
     const double span = static_cast<double>(hi[0] - lo[0] + 1) *
                         static_cast<double>(hi[1] - lo[1] + 1) *
                         static_cast<double>(hi[2] - lo[2] + 1);
-    if (span > 2.0 * static_cast<double>(cells_.size())) {
-      for (const auto& [key, faces] : cells_)
-        for (const int face : faces) consider(face);
+    if (span > static_cast<double>(cell_keys_.size())) {  // a query larger than the index
+      for (const std::uint32_t slot : cell_slots_) consider(slot);
       return;
     }
     for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
       for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
         for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-          const auto it = cells_.find(key_of({x, y, z}));
-          if (it == cells_.end()) continue;
-          for (const int face : it->second) consider(face);
+          const std::uint64_t key = key_of({x, y, z});
+          const auto it = std::lower_bound(cell_keys_.begin(), cell_keys_.end(), key);
+          if (it == cell_keys_.end() || *it != key) continue;
+          const auto c = static_cast<std::size_t>(it - cell_keys_.begin());
+          for (std::uint32_t e = cell_starts_[c]; e < cell_starts_[c + 1]; ++e)
+            consider(cell_slots_[e]);
         }
   }
 
@@ -70,6 +77,7 @@ class FaceIndex {
   static constexpr double kMaxCells = 64;
 
  private:
+  using Cell = std::array<std::int64_t, 3>;
   //! A face's box in single precision, rounded outwards (a query may see a face whose box misses
   //! it by a rounding step, never miss one): 24 bytes a face instead of reading three vertices
   //! through the mesh at every query.
@@ -83,16 +91,21 @@ class FaceIndex {
     }
   };
   static FloatBox rounded(const Box3& box);
-  void file(const Box3& box, int face);
-  std::vector<FloatBox> boxes_;  //!< by face index
-  using Cell = std::array<std::int64_t, 3>;
   Cell cell_of(const Eigen::Vector3d& p) const;
   static std::uint64_t key_of(const Cell& c);
+  void build(const Mesh& mesh, std::span<const FaceHandle> faces);
+  std::uint32_t add_slot(FaceHandle f, const Box3& box);
 
   double cell_size_ = 0;
-  std::unordered_map<std::uint64_t, std::vector<int>> cells_;
-  std::vector<int> large_;
+  // Per filed face (its slot): the face, its box, the last query that saw it.
+  std::vector<int> faces_;
+  std::vector<FloatBox> boxes_;
   mutable std::vector<std::uint32_t> stamp_;
+  // The grid: the distinct cell keys in order, where each one's slots start in cell_slots_.
+  std::vector<std::uint64_t> cell_keys_;
+  std::vector<std::uint32_t> cell_starts_;
+  std::vector<std::uint32_t> cell_slots_;
+  std::vector<std::uint32_t> unsorted_;  //!< huge faces, and faces inserted later
   mutable std::uint32_t query_ = 0;
 };
 

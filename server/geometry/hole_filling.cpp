@@ -11,6 +11,7 @@
 
 #include "server/geometry/bvh.h"
 #include "server/geometry/ear_clipping.h"
+#include "server/geometry/face_index.h"
 #include "server/geometry/intersection.h"
 #include "server/geometry/liepa_triangulation.h"
 #include "server/geometry/local_map.h"
@@ -129,7 +130,8 @@ std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& ho
 //! Liepa's weight knows nothing of the surroundings, CGAL's fills intersect the mesh where ours
 //! would be refused).
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
-                          const LoopData& loop, const FillOptions& options, const FaceIndex& index,
+                          const LoopData& loop, const FillOptions& options,
+                          const std::function<const FaceIndex&()>& index_near_hole,
                           const HoleCreasePlan* creases, bool avoid_intersections = false) {
   TopologyPatch out;
   if (method == FillMethod::CreaseSplit) {
@@ -177,7 +179,7 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
     in.opposite = loop.opposite;
     in.blocked = loop.blocked;
     in.crosses_mesh = [&](const std::array<int, 3>& corners) {
-      return !intersecting_triangles(mesh, hole, loop, index, {corners}).empty();
+      return !intersecting_triangles(mesh, hole, loop, index_near_hole(), {corners}).empty();
     };
     EarClipping t = clip_ears(in);
     out.ok = t.ok;
@@ -201,7 +203,7 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
       out.triangles = std::move(t.triangles);
       if (!out.ok || !avoid_intersections) return out;
       const std::vector<std::size_t> bad =
-          intersecting_triangles(mesh, hole, loop, index, out.triangles);
+          intersecting_triangles(mesh, hole, loop, index_near_hole(), out.triangles);
       if (bad.empty()) return out;
       if (round + 1 >= rounds) {
         out.ok = false;
@@ -226,7 +228,7 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
   std::vector<TrianglePoints> near_faces;
   std::vector<std::array<int, 3>> near_ids;
   std::vector<FaceHandle> region_faces;
-  index.for_each_in_box(mesh, region, [&](FaceHandle f) { region_faces.push_back(f); });
+  index_near_hole().for_each_in_box(mesh, region, [&](FaceHandle f) { region_faces.push_back(f); });
   for (const FaceHandle f : region_faces) {
     TrianglePoints t;
     std::array<int, 3> ids;
@@ -544,7 +546,9 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     ro.max_rounds = options.refine_iterations;
     ro.keep_surface = !fair;
     for (std::size_t p = 0; p < pieces; ++p) {
+      const auto t0 = Clock::now();
       const RefinementReport rr = refine_patch(mesh, piece_faces[p], piece_vertices[p], ro);
+      report.phases.refine += std::chrono::duration<double>(Clock::now() - t0).count();
       report.refinement_rounds =
           std::max(report.refinement_rounds, static_cast<std::size_t>(rr.rounds));
       report.splits += rr.splits;
@@ -572,8 +576,11 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
       quality.flat_fold_deg = quality.max_turn_deg;
       quality.flat_flip_tolerance = 0.1;
     }
-    for (std::size_t p = 0; p < pieces; ++p)
+    for (std::size_t p = 0; p < pieces; ++p) {
+      const auto t0 = Clock::now();
       improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], quality);
+      report.phases.mend += std::chrono::duration<double>(Clock::now() - t0).count();
+    }
   };
   report.shape = PatchShape::Flat;
   if (!fair) {
@@ -618,7 +625,9 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
           const int q = region_of(f);
           return q >= 0 && q != static_cast<int>(p);
         };
+      const auto t0 = Clock::now();
       const FairingReport fr = fair_vertices(mesh, free, fo);
+      report.phases.fair += std::chrono::duration<double>(Clock::now() - t0).count();
       if (!fr.ok) return "fairing failed (" + fr.failure + ")";
     }
     return {};
@@ -661,17 +670,33 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     settle.max_rounds = 2;
     settle.max_turn_deg = 30.0;
     settle.apex_moves = true;
-    for (std::size_t p = 0; p < pieces; ++p)
+    for (std::size_t p = 0; p < pieces; ++p) {
+      const auto t0 = Clock::now();
       improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], settle);
+      report.phases.mend += std::chrono::duration<double>(Clock::now() - t0).count();
+    }
     gather();
   }
   report.shape = PatchShape::Fair;
   return {};
 }
 
-//! fill_hole with the mesh's face index kept across holes (the new faces are filed in it).
+//! The faces a patch of \p hole can meet: its boundary's box grown by a hole radius (a faired
+//! patch rises at most half a radius off its spanning triangulation before the balloon guard
+//! refuses it) and an edge. Found by a scan of the vertices within the mesh's longest edge of
+//! that box, so the cost is one pass over the point array, not a structure over the whole mesh.
+Box3 hole_region(const Hole& hole, const LoopData& loop) {
+  Box3 region;
+  for (const Vec3& p : loop.points) region.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  const double margin = hole.perimeter / (2 * std::numbers::pi) + hole.mean_edge_length;
+  region.min().array() -= margin;
+  region.max().array() += margin;
+  return region;
+}
+
+//! fill_hole with the mesh's longest edge kept across holes (0: not known yet).
 HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
-                                FaceIndex& index) {
+                                double& longest_edge) {
   const auto start = Clock::now();
   HoleFillReport report;
   report.hole_id = hole.id;
@@ -690,6 +715,16 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     return finish();
   }
   const LoopData loop = gather_loop(mesh, hole);
+  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
+  // The faces around the hole, for the triangulations that check many candidate triangles
+  // against the mesh (piecewise chords, the avoiding 3D triangulation, ear clipping): gathered
+  // once, when one of them first asks.
+  std::optional<FaceIndex> near_hole;
+  const auto region_index = [&]() -> const FaceIndex& {
+    if (!near_hole)
+      near_hole.emplace(mesh, faces_in_box(mesh, hole_region(hole, loop), longest_edge));
+    return *near_hole;
+  };
   ShapeDecision decision;
   if (options.shape == PatchShape::Auto) {
     decision = decide_shape(mesh, hole, options);
@@ -758,6 +793,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       if (wants_fair(methods[m])) attempts.push_back({m, true, false});
       attempts.push_back({m, false, wants_fair(methods[m])});
     }
+  HoleFillReport::Phases attempt_phases;  // summed over the attempts
   for (const Attempt& step : attempts) {
     {
       const std::size_t m = step.method;
@@ -775,8 +811,10 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
           dead[m] = 1;
           continue;
         }
-        topology = triangulate(method, mesh, hole, loop, options, index,
+        const auto t0 = Clock::now();
+        topology = triangulate(method, mesh, hole, loop, options, region_index,
                                creases ? &*creases : nullptr, avoid);
+        attempt_phases.triangulate += std::chrono::duration<double>(Clock::now() - t0).count();
         if (!topology->ok) {
           failures.push_back(fmt::format("{}: {}", to_string(method), topology->failure));
           dead[m] = 1;
@@ -794,6 +832,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         continue;
       }
       HoleFillReport attempt = report;
+      attempt.phases = attempt_phases;
       attempt.method = method;
       attempt.pieces = patch.pieces;
       attempt.angles_closed = patch.angles_closed;
@@ -806,10 +845,14 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         if (hole.is_simple &&
             projects_injectively(mesh, faces,
                                  ReferenceFrame::from_normal(hole.reference_normal, hole.centroid)))
-          return !find_intersections_with_rest(mesh, faces, index, 1).empty();
-        return !find_face_intersections(mesh, faces, index, 1).empty();
+          return !find_intersections_with_rest(mesh, faces, 1, longest_edge).empty();
+        return !find_face_intersections(mesh, faces, 1, longest_edge).empty();
       };
-      if (refused.empty() && options.check_intersections && patch_intersects())
+      const auto check_start = Clock::now();
+      const bool crosses = refused.empty() && options.check_intersections && patch_intersects();
+      attempt.phases.check += std::chrono::duration<double>(Clock::now() - check_start).count();
+      attempt_phases = attempt.phases;
+      if (crosses)
         refused = fair ? "the faired patch would intersect the mesh"
                        : "the new faces would intersect existing faces";
       if (!refused.empty()) {
@@ -846,11 +889,14 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         attempt.warnings.push_back("earlier methods failed: " +
                                    fmt::format("{}", fmt::join(failures, "; ")));
       report = std::move(attempt);
-      for (const FaceHandle f : report.new_faces) index.insert(mesh, f);
+      for (const FaceHandle f : report.new_faces)
+        for (const HalfedgeHandle h : mesh.fh_range(f))
+          longest_edge = std::max(longest_edge, mesh.calc_edge_length(h));
       return finish();
     }
   }
   failures.insert(failures.end(), shape_warnings.begin(), shape_warnings.end());
+  report.phases = attempt_phases;
   report.reason =
       failures.empty() ? "no method applies" : fmt::format("{}", fmt::join(failures, "; "));
   return finish();
@@ -859,8 +905,8 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
 }  // namespace
 
 HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options) {
-  FaceIndex index(mesh);
-  return fill_hole_cached(mesh, hole, options, index);
+  double longest_edge = 0;
+  return fill_hole_cached(mesh, hole, options, longest_edge);
 }
 
 std::size_t FillReport::filled() const {
@@ -903,12 +949,12 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
         selected.push_back(&found.holes[nearest->index]);
       break;
   }
-  // Per-mesh preparation, like the hole search above: the grid of faces that the intersection
-  // checks of every patch query (one pass over the faces). Not part of any hole's time; the
-  // report gives it as index_seconds.
-  const auto index_start = Clock::now();
-  FaceIndex index = selected.empty() ? FaceIndex() : FaceIndex(mesh);
-  report.index_seconds = std::chrono::duration<double>(Clock::now() - index_start).count();
+  // Per-mesh preparation, like the hole search above: the longest edge bounds the local
+  // searches for the faces near each hole (one pass over the edges). Not part of any hole's
+  // time; the report gives it as prepare_seconds.
+  const auto prepare_start = Clock::now();
+  double longest_edge = selected.empty() ? 0.0 : max_edge_length(mesh);
+  report.prepare_seconds = std::chrono::duration<double>(Clock::now() - prepare_start).count();
   for (std::size_t i = 0; i < selected.size(); ++i) {
     const Hole& hole = *selected[i];  // properties completed just before filling
     if (selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary) {
@@ -923,7 +969,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
       if (!selected[i]->projectability_computed) {
         compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
       }
-      report.holes.push_back(fill_hole_cached(mesh, hole, options, index));
+      report.holes.push_back(fill_hole_cached(mesh, hole, options, longest_edge));
     }
     if (progress && !progress(i + 1, selected.size())) break;
   }

@@ -110,6 +110,14 @@ struct HoleFillReport {
   std::size_t vertices_added = 0;
   double min_angle_deg = 0;  //!< smallest angle of the new triangles
   double seconds = 0;
+  //! Where the time went (all attempts; seconds): what a slow fill spent it on.
+  struct Phases {
+    double triangulate = 0;  //!< the triangulations of every method tried
+    double refine = 0;       //!< Algorithm III
+    double mend = 0;         //!< patch_quality
+    double fair = 0;         //!< the fairing solves
+    double check = 0;        //!< gathering the faces near the hole, and the intersection checks
+  } phases;
   std::vector<std::string> warnings;
   std::vector<FaceHandle> new_faces;
   std::vector<VertexHandle> new_vertices;
@@ -131,7 +139,7 @@ struct FillReport {
   std::vector<HoleFillReport> holes;
   std::vector<std::uint32_t> unknown_ids;  //!< requested ids that name no hole
   std::size_t holes_found = 0;
-  double index_seconds = 0;  //!< building the face index the checks share (per mesh, not per hole)
+  double prepare_seconds = 0;  //!< the per-mesh pass for the longest edge (not in any hole's time)
   std::size_t filled() const;
   std::size_t left_open() const;
 };

@@ -6,6 +6,7 @@
 
 #include "server/geometry/bvh.h"
 #include "server/geometry/intersection.h"
+#include "server/geometry/local_map.h"
 #include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
@@ -52,6 +53,10 @@ std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Box3& box, double l
 
 namespace {
 
+//! The chosen faces against every face near them: one scan of the points within the longest
+//! edge of the chosen faces' box (every face meeting the box has a corner there), each nearby
+//! face's box looked up in a tree of the chosen triangles. The chosen set is usually a patch,
+//! small next to the mesh, so the tree is built over it, not over the neighbourhood.
 std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh,
                                                                 std::span<const FaceHandle> faces,
                                                                 std::size_t stop_after,
@@ -59,86 +64,47 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh
                                                                 bool test_within) {
   std::vector<std::pair<FaceHandle, FaceHandle>> out;
   if (faces.empty()) return out;
-  std::vector<char> chosen(mesh.n_faces(), 0);
+  std::vector<TrianglePoints> triangles(faces.size());
+  std::vector<std::array<int, 3>> ids(faces.size());
+  LocalSet chosen(faces.size() + 16);
   Box3 region;
-  for (const FaceHandle f : faces) {
-    chosen[static_cast<std::size_t>(f.idx())] = 1;
-    TrianglePoints t;
-    std::array<int, 3> ids;
-    face_data(mesh, f, t, ids);
-    region.extend(triangle_box(t));
+  for (std::size_t i = 0; i < faces.size(); ++i) {
+    chosen.insert(faces[i].idx());
+    face_data(mesh, faces[i], triangles[i], ids[i]);
+    region.extend(triangle_box(triangles[i]));
   }
   const double pad = 1e-9 * std::max(region.diagonal().norm(), 1e-300);
   region.min().array() -= pad;
   region.max().array() += pad;
   if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
-  const std::vector<FaceHandle> candidates = faces_in_box(mesh, region, longest_edge);
-  std::vector<TrianglePoints> triangles;
-  std::vector<std::array<int, 3>> candidate_ids;
-  std::vector<FaceHandle> kept;
-  for (const FaceHandle f : candidates) {
-    if (!test_within && chosen[static_cast<std::size_t>(f.idx())]) continue;
-    kept.push_back(f);
-    TrianglePoints t;
-    std::array<int, 3> ids;
-    face_data(mesh, f, t, ids);
-    triangles.push_back(t);
-    candidate_ids.push_back(ids);
-  }
-  const TriangleBvh bvh(triangles);
-  for (const FaceHandle f : faces) {
-    TrianglePoints t;
-    std::array<int, 3> ids;
-    face_data(mesh, f, t, ids);
-    bool stop = false;
-    bvh.query_box(triangle_box(t), [&](std::uint32_t c) {
-      if (stop) return;
-      const FaceHandle g = kept[c];
-      if (g == f) return;
-      if (chosen[static_cast<std::size_t>(g.idx())] && g.idx() < f.idx()) return;  // test once
-      if (triangles_intersect(t, ids, triangles[c], candidate_ids[c])) {
-        out.emplace_back(f, g);
-        if (stop_after && out.size() >= stop_after) stop = true;
-      }
-    });
-    if (stop) break;
-  }
-  return out;
-}
-
-std::vector<std::pair<FaceHandle, FaceHandle>> indexed_intersections(
-    const Mesh& mesh, std::span<const FaceHandle> faces, const FaceIndex& index,
-    std::size_t stop_after, bool test_within) {
-  std::vector<std::pair<FaceHandle, FaceHandle>> out;
-  if (faces.empty()) return out;
-  std::vector<int> chosen;
-  chosen.reserve(faces.size());
-  std::vector<TrianglePoints> triangles(faces.size());
-  std::vector<std::array<int, 3>> ids(faces.size());
-  for (std::size_t i = 0; i < faces.size(); ++i) {
-    chosen.push_back(faces[i].idx());
-    face_data(mesh, faces[i], triangles[i], ids[i]);
-  }
-  std::sort(chosen.begin(), chosen.end());
-  const auto is_chosen = [&](FaceHandle g) {
-    return std::binary_search(chosen.begin(), chosen.end(), g.idx());
-  };
+  const TriangleBvh tree(triangles);
   const auto full = [&] { return stop_after != 0 && out.size() >= stop_after; };
-  // Against the rest of the mesh, through the index.
-  for (std::size_t i = 0; i < faces.size() && !full(); ++i) {
-    index.for_each_in_box(mesh, triangle_box(triangles[i]), [&](FaceHandle g) {
-      if (full() || is_chosen(g)) return;
+  // Against the rest of the mesh.
+  Box3 grown = region;
+  grown.min().array() -= longest_edge;
+  grown.max().array() += longest_edge;
+  LocalSet seen(1024);
+  for (const VertexHandle v : mesh.vertices()) {
+    if (full()) break;
+    const Vec3& p = mesh.point(v);
+    if (!grown.contains(Eigen::Vector3d(p[0], p[1], p[2]))) continue;
+    for (const FaceHandle g : mesh.vf_range(v)) {
+      if (chosen.contains(g.idx()) || !seen.insert(g.idx())) continue;
       TrianglePoints t;
       std::array<int, 3> g_ids;
       face_data(mesh, g, t, g_ids);
-      if (triangles_intersect(triangles[i], ids[i], t, g_ids)) out.emplace_back(faces[i], g);
-    });
+      const Box3 box = triangle_box(t);
+      if (!box.intersects(region)) continue;
+      tree.query_box(box, [&](std::uint32_t c) {
+        if (full()) return;
+        if (triangles_intersect(triangles[c], ids[c], t, g_ids)) out.emplace_back(faces[c], g);
+      });
+    }
   }
   if (!test_within || full()) return out;
-  // Among the chosen faces themselves.
-  const TriangleBvh bvh(triangles);
+  // Among the chosen faces themselves, each pair once.
   for (std::size_t i = 0; i < faces.size() && !full(); ++i)
-    bvh.query_box(triangle_box(triangles[i]), [&](std::uint32_t j) {
+    tree.query_box(triangle_box(triangles[i]), [&](std::uint32_t j) {
       if (full() || j <= i) return;
       if (triangles_intersect(triangles[i], ids[i], triangles[j], ids[j]))
         out.emplace_back(faces[i], faces[j]);
@@ -147,18 +113,6 @@ std::vector<std::pair<FaceHandle, FaceHandle>> indexed_intersections(
 }
 
 }  // namespace
-
-std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
-    const Mesh& mesh, std::span<const FaceHandle> faces, const FaceIndex& index,
-    std::size_t stop_after) {
-  return indexed_intersections(mesh, faces, index, stop_after, true);
-}
-
-std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
-    const Mesh& mesh, std::span<const FaceHandle> faces, const FaceIndex& index,
-    std::size_t stop_after) {
-  return indexed_intersections(mesh, faces, index, stop_after, false);
-}
 
 std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,

@@ -10,7 +10,6 @@
 
 #include <Eigen/Geometry>
 
-#include "server/geometry/face_index.h"
 #include "server/geometry/mesh.h"
 #include "server/geometry/projection.h"
 
@@ -38,16 +37,6 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
 std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after = 0,
     double longest_edge = 0);
-
-//! The same two checks through a FaceIndex of the rest of the mesh (the faces of \p faces need
-//! not be filed in it): the candidates come from the index's grid instead of a scan of the
-//! mesh, which makes the check of a small patch independent of the mesh's size.
-std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
-    const Mesh& mesh, std::span<const FaceHandle> faces, const FaceIndex& index,
-    std::size_t stop_after = 0);
-std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
-    const Mesh& mesh, std::span<const FaceHandle> faces, const FaceIndex& index,
-    std::size_t stop_after = 0);
 
 //! True if every face of \p faces projects onto the plane of \p frame with the same strict
 //! orientation. For a patch that is a disk whose boundary projects onto a simple polygon

@@ -81,12 +81,15 @@ int main(int argc, char** argv) {
   std::string shape = "auto";
   int repeat = 5;
   bool no_cgal = false;
+  bool phases = false;
   app.add_option("--cases", only, "Only these cases");
   app.add_option("--shape", shape, "touchmend --shape")
       ->check(CLI::IsMember({"flat", "fair", "auto"}));
   app.add_option("--repeat", repeat, "Timing repetitions (median is reported)")
       ->check(CLI::Range(1, 100));
   app.add_flag("--no-cgal", no_cgal, "Skip CGAL even if available");
+  app.add_flag("--phases", phases,
+               "Also print where each hole's time went (triangulate, refine, mend, fair, check)");
   int refine = 3;
   double feature_angle = -1;
   std::string weights = "cotangent";
@@ -291,6 +294,12 @@ int main(int argc, char** argv) {
           h.filled ? geo::to_string(h.method) : "OPEN",
           h.filled ? geo::to_string(h.shape) : h.reason.c_str(), tm_h, tm_mean, fair_mean, tri_mean,
           best, quality.min_angle_deg, cgal_min_angle, quality.max_aspect_ratio, si);
+      if (phases)
+        fmt::print(
+            "|   phases of the scored run, ms: triangulate {:.3f}, refine {:.3f}, mend {:.3f}, "
+            "fair {:.3f}, check {:.3f}; longest edge (per mesh) {:.3f}\n",
+            1e3 * h.phases.triangulate, 1e3 * h.phases.refine, 1e3 * h.phases.mend,
+            1e3 * h.phases.fair, 1e3 * h.phases.check, 1e3 * report.prepare_seconds);
     }
   }
   fmt::print(
