@@ -89,8 +89,11 @@ struct TopologyPatch {
 
 //! Indices (into \p triangles) of the triangles over the loop that intersect a face of the
 //! mesh or another of them.
+//! Through \p index (many small queries: ear clipping's ears), or with one scan of the points
+//! near the triangles when it is null (a whole triangulation at once).
 std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& hole,
-                                                const LoopData& loop, const FaceIndex& index,
+                                                const LoopData& loop, const FaceIndex* index,
+                                                double longest_edge,
                                                 const std::vector<std::array<int, 3>>& triangles) {
   std::vector<TrianglePoints> points(triangles.size());
   std::vector<std::array<int, 3>> ids(triangles.size());
@@ -101,18 +104,21 @@ std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& ho
       ids[t][c] = hole.loop[corner].idx();
     }
   std::vector<char> bad(triangles.size(), 0);
+  if (!index)
+    for (const std::size_t t : triangles_crossing_mesh(mesh, points, ids, longest_edge)) bad[t] = 1;
   for (std::size_t t = 0; t < triangles.size(); ++t) {
-    index.for_each_in_box(mesh, triangle_box(points[t]), [&](FaceHandle f) {
-      if (bad[t]) return;
-      TrianglePoints other;
-      std::array<int, 3> other_ids;
-      int k = 0;
-      for (const VertexHandle v : mesh.fv_range(f)) {
-        other[static_cast<std::size_t>(k)] = mesh.point(v);
-        other_ids[static_cast<std::size_t>(k++)] = v.idx();
-      }
-      if (triangles_intersect(points[t], ids[t], other, other_ids)) bad[t] = 1;
-    });
+    if (index)
+      index->for_each_in_box(mesh, triangle_box(points[t]), [&](FaceHandle f) {
+        if (bad[t]) return;
+        TrianglePoints other;
+        std::array<int, 3> other_ids;
+        int k = 0;
+        for (const VertexHandle v : mesh.fv_range(f)) {
+          other[static_cast<std::size_t>(k)] = mesh.point(v);
+          other_ids[static_cast<std::size_t>(k++)] = v.idx();
+        }
+        if (triangles_intersect(points[t], ids[t], other, other_ids)) bad[t] = 1;
+      });
     for (std::size_t u = t + 1; u < triangles.size(); ++u)
       if (triangle_box(points[t]).intersects(triangle_box(points[u])) &&
           triangles_intersect(points[t], ids[t], points[u], ids[u]))
@@ -132,7 +138,8 @@ std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& ho
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
                           const LoopData& loop, const FillOptions& options,
                           const std::function<const FaceIndex&()>& index_near_hole,
-                          const HoleCreasePlan* creases, bool avoid_intersections = false) {
+                          double longest_edge, const HoleCreasePlan* creases,
+                          bool avoid_intersections = false) {
   TopologyPatch out;
   if (method == FillMethod::CreaseSplit) {
     if (creases == nullptr || creases->curves.empty()) {
@@ -179,7 +186,8 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
     in.opposite = loop.opposite;
     in.blocked = loop.blocked;
     in.crosses_mesh = [&](const std::array<int, 3>& corners) {
-      return !intersecting_triangles(mesh, hole, loop, index_near_hole(), {corners}).empty();
+      return !intersecting_triangles(mesh, hole, loop, &index_near_hole(), longest_edge, {corners})
+                  .empty();
     };
     EarClipping t = clip_ears(in);
     out.ok = t.ok;
@@ -203,7 +211,7 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
       out.triangles = std::move(t.triangles);
       if (!out.ok || !avoid_intersections) return out;
       const std::vector<std::size_t> bad =
-          intersecting_triangles(mesh, hole, loop, index_near_hole(), out.triangles);
+          intersecting_triangles(mesh, hole, loop, nullptr, longest_edge, out.triangles);
       if (bad.empty()) return out;
       if (round + 1 >= rounds) {
         out.ok = false;
@@ -812,7 +820,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
           continue;
         }
         const auto t0 = Clock::now();
-        topology = triangulate(method, mesh, hole, loop, options, region_index,
+        topology = triangulate(method, mesh, hole, loop, options, region_index, longest_edge,
                                creases ? &*creases : nullptr, avoid);
         attempt_phases.triangulate += std::chrono::duration<double>(Clock::now() - t0).count();
         if (!topology->ok) {

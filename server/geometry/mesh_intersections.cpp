@@ -114,6 +114,39 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh
 
 }  // namespace
 
+std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
+                                                 std::span<const TrianglePoints> triangles,
+                                                 std::span<const std::array<int, 3>> ids,
+                                                 double longest_edge) {
+  std::vector<std::size_t> out;
+  if (triangles.empty()) return out;
+  Box3 region;
+  for (const TrianglePoints& t : triangles) region.extend(triangle_box(t));
+  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
+  const TriangleBvh tree(std::vector<TrianglePoints>(triangles.begin(), triangles.end()));
+  std::vector<char> crossing(triangles.size(), 0);
+  Box3 grown = region;
+  grown.min().array() -= longest_edge;
+  grown.max().array() += longest_edge;
+  LocalSet seen(1024);
+  for (const VertexHandle v : mesh.vertices()) {
+    const Vec3& p = mesh.point(v);
+    if (!grown.contains(Eigen::Vector3d(p[0], p[1], p[2]))) continue;
+    for (const FaceHandle g : mesh.vf_range(v)) {
+      if (!seen.insert(g.idx())) continue;
+      TrianglePoints t;
+      std::array<int, 3> g_ids;
+      face_data(mesh, g, t, g_ids);
+      tree.query_box(triangle_box(t), [&](std::uint32_t c) {
+        if (!crossing[c] && triangles_intersect(triangles[c], ids[c], t, g_ids)) crossing[c] = 1;
+      });
+    }
+  }
+  for (std::size_t c = 0; c < triangles.size(); ++c)
+    if (crossing[c]) out.push_back(c);
+  return out;
+}
+
 std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
     double longest_edge) {

@@ -3,6 +3,7 @@
 //! \file mesh_intersections.h
 //! \brief Intersections between chosen faces and the rest of a mesh.
 
+#include <array>
 #include <cstddef>
 #include <span>
 #include <utility>
@@ -11,6 +12,7 @@
 #include <Eigen/Geometry>
 
 #include "server/geometry/mesh.h"
+#include "server/geometry/intersection.h"
 #include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
@@ -37,6 +39,14 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
 std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after = 0,
     double longest_edge = 0);
+
+//! Which of \p triangles (not in the mesh; \p ids their corners' vertex indices in it, for the
+//! shared-vertex rules of triangles_intersect) intersect a face of the mesh: indices into
+//! \p triangles. One scan of the points near the triangles, like find_face_intersections.
+std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
+                                                 std::span<const TrianglePoints> triangles,
+                                                 std::span<const std::array<int, 3>> ids,
+                                                 double longest_edge = 0);
 
 //! True if every face of \p faces projects onto the plane of \p frame with the same strict
 //! orientation. For a patch that is a disk whose boundary projects onto a simple polygon
