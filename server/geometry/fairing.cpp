@@ -2,12 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
+
+#include "server/geometry/local_map.h"
 
 namespace touchmend::geometry {
 namespace {
@@ -38,11 +39,11 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
     return counts(h) || counts(mesh.opposite_halfedge_handle(h));
   };
   // Vertices within distance k of the free set: rows of L are needed up to distance k-1.
-  std::unordered_map<int, int> local;  // vertex index -> local index
+  LocalMap<int> local(4 * free_vertices.size() + 16);  // vertex index -> local index
   std::vector<VertexHandle> vertices;
   std::vector<int> ring_of;
   for (const VertexHandle v : free_vertices) {
-    if (local.emplace(v.idx(), static_cast<int>(vertices.size())).second) {
+    if (local.insert(v.idx(), static_cast<int>(vertices.size()))) {
       vertices.push_back(v);
       ring_of.push_back(0);
     }
@@ -54,7 +55,7 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
       for (const HalfedgeHandle h : mesh.voh_range(vertices[i])) {
         if (!edge_counts(h)) continue;
         const VertexHandle w = mesh.to_vertex_handle(h);
-        if (local.emplace(w.idx(), static_cast<int>(vertices.size())).second) {
+        if (local.insert(w.idx(), static_cast<int>(vertices.size()))) {
           vertices.push_back(w);
           ring_of.push_back(ring);
         }
@@ -85,9 +86,9 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
         }
         weight = std::clamp(weight, 1e-3, 1e3);  // obtuse slivers: keep the system well posed
       }
-      const auto it = local.find(w.idx());
-      if (it == local.end()) continue;  // cannot happen for rows of ring < k
-      triplets.emplace_back(i, it->second, weight);
+      const int* it = local.find(w.idx());
+      if (!it) continue;  // cannot happen for rows of ring < k
+      triplets.emplace_back(i, *it, weight);
       diagonal -= weight;
       if (counts(h)) {
         const Vec3& pw = mesh.point(w);
@@ -109,7 +110,13 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
   // patches). LU remains the fallback.
   const Eigen::VectorXd minv = Eigen::Map<const Eigen::VectorXd>(inverse_mass.data(), n);
   Eigen::SparseMatrix<double> Lk = C.topRows(n_free);
-  for (int p = 1; p < k; ++p) Lk = (Lk * minv.asDiagonal() * C).pruned();
+  if (k > 1) {
+    const Eigen::SparseMatrix<double> MinvC = minv.asDiagonal() * C;  // scaled rows, one pass
+    for (int p = 1; p < k; ++p) {
+      const Eigen::SparseMatrix<double> next = Lk * MinvC;
+      Lk = next;
+    }
+  }
   Eigen::SparseMatrix<double> A = Lk.leftCols(n_free);
   const Eigen::SparseMatrix<double> B = Lk.rightCols(n - n_free);
   Eigen::MatrixXd fixed(n - n_free, 3);

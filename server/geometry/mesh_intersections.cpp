@@ -21,6 +21,25 @@ void face_data(const Mesh& mesh, FaceHandle f, TrianglePoints& t, std::array<int
   }
 }
 
+//! The face of outgoing halfedge \p h (corners from(h), to(h), to(next(h)), in the face's
+//! order) into \p t and \p ids, if from(h) is its corner of lowest index inside \p box: the
+//! vertex scans meet every face once per corner inside the box and handle it at that one only,
+//! with no set of faces seen. False for a boundary halfedge.
+bool face_from_lowest_inside(const Mesh& mesh, HalfedgeHandle h, const Box3& box, TrianglePoints& t,
+                             std::array<int, 3>& ids) {
+  if (mesh.is_boundary(h)) return false;
+  const VertexHandle a = mesh.from_vertex_handle(h), b = mesh.to_vertex_handle(h),
+                     c = mesh.to_vertex_handle(mesh.next_halfedge_handle(h));
+  t = {mesh.point(a), mesh.point(b), mesh.point(c)};
+  ids = {a.idx(), b.idx(), c.idx()};
+  const auto inside = [&](const Vec3& p) {
+    return box.contains(Eigen::Vector3d(p[0], p[1], p[2]));
+  };
+  if (b.idx() < a.idx() && inside(t[1])) return false;
+  if (c.idx() < a.idx() && inside(t[2])) return false;
+  return true;
+}
+
 }  // namespace
 
 double max_edge_length(const Mesh& mesh) {
@@ -83,16 +102,16 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh
   Box3 grown = region;
   grown.min().array() -= longest_edge;
   grown.max().array() += longest_edge;
-  LocalSet seen(1024);
   for (const VertexHandle v : mesh.vertices()) {
     if (full()) break;
     const Vec3& p = mesh.point(v);
     if (!grown.contains(Eigen::Vector3d(p[0], p[1], p[2]))) continue;
-    for (const FaceHandle g : mesh.vf_range(v)) {
-      if (chosen.contains(g.idx()) || !seen.insert(g.idx())) continue;
+    for (const HalfedgeHandle h : mesh.voh_range(v)) {
       TrianglePoints t;
       std::array<int, 3> g_ids;
-      face_data(mesh, g, t, g_ids);
+      if (!face_from_lowest_inside(mesh, h, grown, t, g_ids)) continue;
+      const FaceHandle g = mesh.face_handle(h);
+      if (chosen.contains(g.idx())) continue;
       const Box3 box = triangle_box(t);
       if (!box.intersects(region)) continue;
       tree.query_box(box, [&](std::uint32_t c) {
@@ -128,15 +147,13 @@ std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
   Box3 grown = region;
   grown.min().array() -= longest_edge;
   grown.max().array() += longest_edge;
-  LocalSet seen(1024);
   for (const VertexHandle v : mesh.vertices()) {
     const Vec3& p = mesh.point(v);
     if (!grown.contains(Eigen::Vector3d(p[0], p[1], p[2]))) continue;
-    for (const FaceHandle g : mesh.vf_range(v)) {
-      if (!seen.insert(g.idx())) continue;
+    for (const HalfedgeHandle h : mesh.voh_range(v)) {
       TrianglePoints t;
       std::array<int, 3> g_ids;
-      face_data(mesh, g, t, g_ids);
+      if (!face_from_lowest_inside(mesh, h, grown, t, g_ids)) continue;
       tree.query_box(triangle_box(t), [&](std::uint32_t c) {
         if (!crossing[c] && triangles_intersect(triangles[c], ids[c], t, g_ids)) crossing[c] = 1;
       });

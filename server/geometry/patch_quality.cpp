@@ -90,8 +90,16 @@ class Patch {
            set_.contains(mesh_.face_handle(mesh_.halfedge_handle(e, 1)));
   }
 
+  //! The triangles below the goal (one pass over the patch; the passes below work on these).
+  std::vector<FaceHandle> bad_faces() const {
+    std::vector<FaceHandle> out;
+    for (const FaceHandle f : faces_)
+      if (face_shape(mesh_, f) < goal_) out.push_back(f);
+    return out;
+  }
+
   //! Flips interior edges while the smaller angle of the two triangles grows.
-  std::size_t flip_pass() {
+  std::size_t flip_pass(const std::vector<FaceHandle>& bad) {
     std::deque<EdgeHandle> queue;
     LocalMap<char> queued(2 * faces_.size() + 16);
     const auto push = [&](EdgeHandle e) {
@@ -101,9 +109,8 @@ class Patch {
       queue.push_back(e);
     };
     // Only the edges of the triangles below the goal; a flip queues the edges around it.
-    for (const FaceHandle f : faces_)
-      if (face_shape(mesh_, f) < goal_)
-        for (const HalfedgeHandle h : mesh_.fh_range(f)) push(mesh_.edge_handle(h));
+    for (const FaceHandle f : bad)
+      for (const HalfedgeHandle h : mesh_.fh_range(f)) push(mesh_.edge_handle(h));
     std::size_t budget = 20 * queue.size() + 100;
     std::size_t flips = 0;
     while (!queue.empty() && budget-- > 0) {
@@ -123,15 +130,13 @@ class Patch {
 
   //! Moves each free vertex towards the centre of its ring, in its tangent plane, when the
   //! smallest angle around it grows.
-  std::size_t smooth_pass() {
+  std::size_t smooth_pass(const std::vector<FaceHandle>& bad) {
     std::vector<VertexHandle> candidates;
-    LocalSet seen(faces_.size() + 16);
-    // Only the corners of the triangles below the goal.
-    for (const FaceHandle f : faces_) {
-      if (face_shape(mesh_, f) >= goal_) continue;
+    LocalSet seen(3 * bad.size() + 16);
+    // Only the corners of the triangles below the goal (flips may have changed them since).
+    for (const FaceHandle f : bad)
       for (const VertexHandle v : mesh_.fv_range(f))
         if (seen.insert(v.idx())) candidates.push_back(v);
-    }
     std::size_t moves = 0;
     for (const VertexHandle v : candidates) moves += try_move(v) ? 1 : 0;
     return moves;
@@ -139,18 +144,20 @@ class Patch {
 
   //! Bisects the longest edge of every triangle still below the goal, where that edge is
   //! interior and not already short.
-  std::size_t split_pass() {
-    std::vector<double> rim;
-    for (const FaceHandle f : faces_)
-      for (const HalfedgeHandle h : mesh_.fh_range(f))
-        if (!interior(mesh_.edge_handle(h))) rim.push_back(mesh_.calc_edge_length(h));
-    if (rim.empty()) return 0;
-    std::nth_element(rim.begin(), rim.begin() + static_cast<std::ptrdiff_t>(rim.size() / 2),
-                     rim.end());
-    const double shortest = options_.min_split_length * rim[rim.size() / 2];
+  std::size_t split_pass(const std::vector<FaceHandle>& bad) {
+    if (!(shortest_split_ >= 0)) {  // the patch's rim never changes: measured once
+      std::vector<double> rim;
+      for (const FaceHandle f : faces_)
+        for (const HalfedgeHandle h : mesh_.fh_range(f))
+          if (!interior(mesh_.edge_handle(h))) rim.push_back(mesh_.calc_edge_length(h));
+      if (rim.empty()) return 0;
+      std::nth_element(rim.begin(), rim.begin() + static_cast<std::ptrdiff_t>(rim.size() / 2),
+                       rim.end());
+      shortest_split_ = options_.min_split_length * rim[rim.size() / 2];
+    }
+    const double shortest = shortest_split_;
     std::size_t splits = 0;
-    const std::vector<FaceHandle> snapshot = faces_;
-    for (const FaceHandle f : snapshot) {
+    for (const FaceHandle f : bad) {
       const auto p = face_points(mesh_, f);
       if (triangle_shape(p[0], p[1], p[2]) >= goal_) continue;
       if (largest_angle_cos(p[0], p[1], p[2]) < cap_cos_) continue;
@@ -338,6 +345,7 @@ class Patch {
   double flip_turn_cos_;
   double cap_cos_;
   double goal_;  //!< sin of the target minimum angle
+  double shortest_split_ = -1;
 };
 
 }  // namespace
@@ -355,21 +363,23 @@ PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& pa
   if (patch_faces.empty()) return report;
   Patch patch(mesh, patch_faces, new_vertices, options);
   report.min_angle_before_deg = shape_to_degrees(patch.min_shape());
-  for (int round = 0; round < options.max_rounds; ++round) {
+  std::vector<FaceHandle> bad = patch.bad_faces();
+  for (int round = 0; round < options.max_rounds && !bad.empty(); ++round) {
     report.rounds = round + 1;
-    report.flips += patch.flip_pass();
-    report.moves += patch.smooth_pass();
-    if (patch.min_shape() >= patch.goal()) break;
-    const std::size_t splits = options.bisect ? patch.split_pass() : 0;
+    report.flips += patch.flip_pass(bad);
+    report.moves += patch.smooth_pass(patch.bad_faces());
+    bad = patch.bad_faces();
+    if (bad.empty()) break;
+    const std::size_t splits = options.bisect ? patch.split_pass(bad) : 0;
+    bad = patch.bad_faces();
     report.splits += splits;
-    if (splits == 0) {
-      // Nothing left to bisect: one more flip and smoothing pass settles the last splits.
-      break;
-    }
+    if (splits == 0) break;  // nothing left to bisect
   }
   // Settle the last bisections (and any round cut short by the cap).
-  report.flips += patch.flip_pass();
-  report.moves += patch.smooth_pass();
+  if (!bad.empty()) {
+    report.flips += patch.flip_pass(bad);
+    report.moves += patch.smooth_pass(patch.bad_faces());
+  }
   report.min_angle_after_deg = shape_to_degrees(patch.min_shape());
   return report;
 }
