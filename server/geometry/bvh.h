@@ -45,6 +45,26 @@ class TriangleBvh {
     }
   }
 
+  //! Whether any triangle's box overlaps \p box (stops at the first).
+  bool overlaps_any(const Box3& box) const {
+    if (nodes_.empty()) return false;
+    std::uint32_t stack[64];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      if (!node.box.intersects(box)) continue;
+      if (node.count > 0) {
+        for (std::uint32_t i = 0; i < node.count; ++i)
+          if (boxes_[order_[node.first + i]].intersects(box)) return true;
+      } else if (top + 2 <= 64) {
+        stack[top++] = node.first;
+        stack[top++] = node.first + 1;
+      }
+    }
+    return false;
+  }
+
   struct Closest {
     double distance2 = 0;
     Vec3 point{0, 0, 0};

@@ -105,7 +105,12 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh
   for (const VertexHandle v : mesh.vertices()) {
     if (full()) break;
     const Vec3& p = mesh.point(v);
-    if (!grown.contains(Eigen::Vector3d(p[0], p[1], p[2]))) continue;
+    const Eigen::Vector3d q(p[0], p[1], p[2]);
+    if (!grown.contains(q)) continue;
+    // A face near the patch has every corner within the longest edge of some patch triangle's
+    // box: a vertex farther from all of them (most of a large box around a curved patch) is
+    // passed over without reading its faces.
+    if (!tree.overlaps_any(Box3(q.array() - longest_edge, q.array() + longest_edge))) continue;
     for (const HalfedgeHandle h : mesh.voh_range(v)) {
       TrianglePoints t;
       std::array<int, 3> g_ids;
@@ -149,7 +154,9 @@ std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
   grown.max().array() += longest_edge;
   for (const VertexHandle v : mesh.vertices()) {
     const Vec3& p = mesh.point(v);
-    if (!grown.contains(Eigen::Vector3d(p[0], p[1], p[2]))) continue;
+    const Eigen::Vector3d q(p[0], p[1], p[2]);
+    if (!grown.contains(q)) continue;
+    if (!tree.overlaps_any(Box3(q.array() - longest_edge, q.array() + longest_edge))) continue;
     for (const HalfedgeHandle h : mesh.voh_range(v)) {
       TrianglePoints t;
       std::array<int, 3> g_ids;

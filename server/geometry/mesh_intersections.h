@@ -11,8 +11,8 @@
 
 #include <Eigen/Geometry>
 
-#include "server/geometry/mesh.h"
 #include "server/geometry/intersection.h"
+#include "server/geometry/mesh.h"
 #include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
