@@ -93,7 +93,7 @@ struct TopologyPatch {
 //! near the triangles when it is null (a whole triangulation at once).
 std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& hole,
                                                 const LoopData& loop, const FaceIndex* index,
-                                                double longest_edge,
+                                                const SearchReach& reach,
                                                 const std::vector<std::array<int, 3>>& triangles) {
   std::vector<TrianglePoints> points(triangles.size());
   std::vector<std::array<int, 3>> ids(triangles.size());
@@ -105,7 +105,7 @@ std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& ho
     }
   std::vector<char> bad(triangles.size(), 0);
   if (!index)
-    for (const std::size_t t : triangles_crossing_mesh(mesh, points, ids, longest_edge)) bad[t] = 1;
+    for (const std::size_t t : triangles_crossing_mesh(mesh, points, ids, reach)) bad[t] = 1;
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     if (index)
       index->for_each_in_box(mesh, triangle_box(points[t]), [&](FaceHandle f) {
@@ -138,7 +138,7 @@ std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& ho
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
                           const LoopData& loop, const FillOptions& options,
                           const std::function<const FaceIndex&()>& index_near_hole,
-                          double longest_edge, const HoleCreasePlan* creases,
+                          const SearchReach& reach, const HoleCreasePlan* creases,
                           bool avoid_intersections = false) {
   TopologyPatch out;
   if (method == FillMethod::CreaseSplit) {
@@ -186,7 +186,7 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
     in.opposite = loop.opposite;
     in.blocked = loop.blocked;
     in.crosses_mesh = [&](const std::array<int, 3>& corners) {
-      return !intersecting_triangles(mesh, hole, loop, &index_near_hole(), longest_edge, {corners})
+      return !intersecting_triangles(mesh, hole, loop, &index_near_hole(), reach, {corners})
                   .empty();
     };
     EarClipping t = clip_ears(in);
@@ -211,7 +211,7 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
       out.triangles = std::move(t.triangles);
       if (!out.ok || !avoid_intersections) return out;
       const std::vector<std::size_t> bad =
-          intersecting_triangles(mesh, hole, loop, nullptr, longest_edge, out.triangles);
+          intersecting_triangles(mesh, hole, loop, nullptr, reach, out.triangles);
       if (bad.empty()) return out;
       if (round + 1 >= rounds) {
         out.ok = false;
@@ -702,9 +702,9 @@ Box3 hole_region(const Hole& hole, const LoopData& loop) {
   return region;
 }
 
-//! fill_hole with the mesh's longest edge kept across holes (0: not known yet).
+//! fill_hole with the search reach kept across holes (the new faces are filed in it).
 HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
-                                double& longest_edge) {
+                                SearchReach& reach) {
   const auto start = Clock::now();
   HoleFillReport report;
   report.hole_id = hole.id;
@@ -723,14 +723,13 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     return finish();
   }
   const LoopData loop = gather_loop(mesh, hole);
-  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
+  if (!(reach.longest_edge > 0)) reach.longest_edge = max_edge_length(mesh);
   // The faces around the hole, for the triangulations that check many candidate triangles
   // against the mesh (piecewise chords, the avoiding 3D triangulation, ear clipping): gathered
   // once, when one of them first asks.
   std::optional<FaceIndex> near_hole;
   const auto region_index = [&]() -> const FaceIndex& {
-    if (!near_hole)
-      near_hole.emplace(mesh, faces_in_box(mesh, hole_region(hole, loop), longest_edge));
+    if (!near_hole) near_hole.emplace(mesh, faces_in_box(mesh, hole_region(hole, loop), reach));
     return *near_hole;
   };
   ShapeDecision decision;
@@ -820,7 +819,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
           continue;
         }
         const auto t0 = Clock::now();
-        topology = triangulate(method, mesh, hole, loop, options, region_index, longest_edge,
+        topology = triangulate(method, mesh, hole, loop, options, region_index, reach,
                                creases ? &*creases : nullptr, avoid);
         attempt_phases.triangulate += std::chrono::duration<double>(Clock::now() - t0).count();
         if (!topology->ok) {
@@ -853,8 +852,8 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         if (hole.is_simple &&
             projects_injectively(mesh, faces,
                                  ReferenceFrame::from_normal(hole.reference_normal, hole.centroid)))
-          return !find_intersections_with_rest(mesh, faces, 1, longest_edge).empty();
-        return !find_face_intersections(mesh, faces, 1, longest_edge).empty();
+          return !find_intersections_with_rest(mesh, faces, 1, reach).empty();
+        return !find_face_intersections(mesh, faces, 1, reach).empty();
       };
       const auto check_start = Clock::now();
       const bool crosses = refused.empty() && options.check_intersections && patch_intersects();
@@ -897,9 +896,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         attempt.warnings.push_back("earlier methods failed: " +
                                    fmt::format("{}", fmt::join(failures, "; ")));
       report = std::move(attempt);
-      for (const FaceHandle f : report.new_faces)
-        for (const HalfedgeHandle h : mesh.fh_range(f))
-          longest_edge = std::max(longest_edge, mesh.calc_edge_length(h));
+      reach.add(mesh, report.new_faces);
       return finish();
     }
   }
@@ -913,8 +910,8 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
 }  // namespace
 
 HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options) {
-  double longest_edge = 0;
-  return fill_hole_cached(mesh, hole, options, longest_edge);
+  SearchReach reach;
+  return fill_hole_cached(mesh, hole, options, reach);
 }
 
 std::size_t FillReport::filled() const {
@@ -961,7 +958,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
   // searches for the faces near each hole (one pass over the edges). Not part of any hole's
   // time; the report gives it as prepare_seconds.
   const auto prepare_start = Clock::now();
-  double longest_edge = selected.empty() ? 0.0 : max_edge_length(mesh);
+  SearchReach reach{selected.empty() ? 0.0 : max_edge_length(mesh), {}};
   report.prepare_seconds = std::chrono::duration<double>(Clock::now() - prepare_start).count();
   for (std::size_t i = 0; i < selected.size(); ++i) {
     const Hole& hole = *selected[i];  // properties completed just before filling
@@ -977,7 +974,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
       if (!selected[i]->projectability_computed) {
         compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
       }
-      report.holes.push_back(fill_hole_cached(mesh, hole, options, longest_edge));
+      report.holes.push_back(fill_hole_cached(mesh, hole, options, reach));
     }
     if (progress && !progress(i + 1, selected.size())) break;
   }

@@ -40,7 +40,52 @@ bool face_from_lowest_inside(const Mesh& mesh, HalfedgeHandle h, const Box3& box
   return true;
 }
 
+//! Calls visit(face, triangle, corner ids) once for every non-deleted face that may meet \p box:
+//! those with a corner within the reach's longest edge of it (only at points that pass
+//! \p keep_point, a cheaper test the caller may narrow the search with), and the reach's long
+//! faces. The callers test the boxes themselves.
+template <typename KeepPoint, typename Visit>
+void for_each_face_near(const Mesh& mesh, const Box3& box, const SearchReach& reach,
+                        KeepPoint&& keep_point, Visit&& visit) {
+  Box3 grown = box;
+  grown.min().array() -= reach.longest_edge;
+  grown.max().array() += reach.longest_edge;
+  LocalSet long_faces(reach.long_faces.size() + 16);
+  for (const FaceHandle f : reach.long_faces) long_faces.insert(f.idx());
+  for (const VertexHandle v : mesh.vertices()) {
+    const Vec3& p = mesh.point(v);
+    const Eigen::Vector3d q(p[0], p[1], p[2]);
+    if (!grown.contains(q) || !keep_point(q)) continue;
+    for (const HalfedgeHandle h : mesh.voh_range(v)) {
+      TrianglePoints t;
+      std::array<int, 3> ids;
+      if (!face_from_lowest_inside(mesh, h, grown, t, ids)) continue;
+      const FaceHandle g = mesh.face_handle(h);
+      if (long_faces.contains(g.idx())) continue;  // visited below
+      if (!visit(g, t, ids)) return;
+    }
+  }
+  for (const FaceHandle g : reach.long_faces) {
+    if (!g.is_valid() || static_cast<std::size_t>(g.idx()) >= mesh.n_faces() ||
+        mesh.status(g).deleted())
+      continue;
+    TrianglePoints t;
+    std::array<int, 3> ids;
+    face_data(mesh, g, t, ids);
+    if (!visit(g, t, ids)) return;
+  }
+}
+
 }  // namespace
+
+void SearchReach::add(const Mesh& mesh, std::span<const FaceHandle> faces) {
+  for (const FaceHandle f : faces) {
+    double longest = 0;
+    for (const HalfedgeHandle h : mesh.fh_range(f))
+      longest = std::max(longest, mesh.calc_edge_length(h));
+    if (longest > longest_edge) long_faces.push_back(f);
+  }
+}
 
 double max_edge_length(const Mesh& mesh) {
   double longest = 0;
@@ -49,24 +94,17 @@ double max_edge_length(const Mesh& mesh) {
 }
 
 std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Box3& box, double longest_edge) {
-  Box3 grown = box;
-  grown.min().array() -= longest_edge;
-  grown.max().array() += longest_edge;
+  return faces_in_box(mesh, box, SearchReach{longest_edge, {}});
+}
+
+std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Box3& box, const SearchReach& reach) {
   std::vector<FaceHandle> out;
-  std::vector<char> seen(mesh.n_faces(), 0);
-  for (const VertexHandle v : mesh.vertices()) {
-    const Vec3& p = mesh.point(v);
-    if (!grown.contains(Eigen::Vector3d(p[0], p[1], p[2]))) continue;
-    for (const FaceHandle f : mesh.vf_range(v)) {
-      char& s = seen[static_cast<std::size_t>(f.idx())];
-      if (s) continue;
-      s = 1;
-      TrianglePoints t;
-      std::array<int, 3> ids;
-      face_data(mesh, f, t, ids);
-      if (triangle_box(t).intersects(box)) out.push_back(f);
-    }
-  }
+  for_each_face_near(
+      mesh, box, reach, [](const Eigen::Vector3d&) { return true; },
+      [&](FaceHandle f, const TrianglePoints& t, const std::array<int, 3>&) {
+        if (triangle_box(t).intersects(box)) out.push_back(f);
+        return true;
+      });
   return out;
 }
 
@@ -79,7 +117,7 @@ namespace {
 std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh,
                                                                 std::span<const FaceHandle> faces,
                                                                 std::size_t stop_after,
-                                                                double longest_edge,
+                                                                const SearchReach& reach,
                                                                 bool test_within) {
   std::vector<std::pair<FaceHandle, FaceHandle>> out;
   if (faces.empty()) return out;
@@ -95,36 +133,27 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh
   const double pad = 1e-9 * std::max(region.diagonal().norm(), 1e-300);
   region.min().array() -= pad;
   region.max().array() += pad;
-  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
   const TriangleBvh tree(triangles);
   const auto full = [&] { return stop_after != 0 && out.size() >= stop_after; };
-  // Against the rest of the mesh.
-  Box3 grown = region;
-  grown.min().array() -= longest_edge;
-  grown.max().array() += longest_edge;
-  for (const VertexHandle v : mesh.vertices()) {
-    if (full()) break;
-    const Vec3& p = mesh.point(v);
-    const Eigen::Vector3d q(p[0], p[1], p[2]);
-    if (!grown.contains(q)) continue;
-    // A face near the patch has every corner within the longest edge of some patch triangle's
-    // box: a vertex farther from all of them (most of a large box around a curved patch) is
-    // passed over without reading its faces.
-    if (!tree.overlaps_any(Box3(q.array() - longest_edge, q.array() + longest_edge))) continue;
-    for (const HalfedgeHandle h : mesh.voh_range(v)) {
-      TrianglePoints t;
-      std::array<int, 3> g_ids;
-      if (!face_from_lowest_inside(mesh, h, grown, t, g_ids)) continue;
-      const FaceHandle g = mesh.face_handle(h);
-      if (chosen.contains(g.idx())) continue;
-      const Box3 box = triangle_box(t);
-      if (!box.intersects(region)) continue;
-      tree.query_box(box, [&](std::uint32_t c) {
-        if (full()) return;
-        if (triangles_intersect(triangles[c], ids[c], t, g_ids)) out.emplace_back(faces[c], g);
+  // Against the rest of the mesh. A face near the patch has every corner within the longest
+  // edge of some patch triangle's box: a point farther from all of them (most of a large box
+  // around a curved patch) is passed over without reading its faces.
+  const double reach_edge = reach.longest_edge;
+  for_each_face_near(
+      mesh, region, reach,
+      [&](const Eigen::Vector3d& q) {
+        return tree.overlaps_any(Box3(q.array() - reach_edge, q.array() + reach_edge));
+      },
+      [&](FaceHandle g, const TrianglePoints& t, const std::array<int, 3>& g_ids) {
+        if (chosen.contains(g.idx())) return true;
+        const Box3 box = triangle_box(t);
+        if (!box.intersects(region)) return true;
+        tree.query_box(box, [&](std::uint32_t c) {
+          if (full()) return;
+          if (triangles_intersect(triangles[c], ids[c], t, g_ids)) out.emplace_back(faces[c], g);
+        });
+        return !full();
       });
-    }
-  }
   if (!test_within || full()) return out;
   // Among the chosen faces themselves, each pair once.
   for (std::size_t i = 0; i < faces.size() && !full(); ++i)
@@ -141,31 +170,25 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh
 std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
                                                  std::span<const TrianglePoints> triangles,
                                                  std::span<const std::array<int, 3>> ids,
-                                                 double longest_edge) {
+                                                 const SearchReach& reach) {
   std::vector<std::size_t> out;
   if (triangles.empty()) return out;
   Box3 region;
   for (const TrianglePoints& t : triangles) region.extend(triangle_box(t));
-  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
   const TriangleBvh tree(std::vector<TrianglePoints>(triangles.begin(), triangles.end()));
   std::vector<char> crossing(triangles.size(), 0);
-  Box3 grown = region;
-  grown.min().array() -= longest_edge;
-  grown.max().array() += longest_edge;
-  for (const VertexHandle v : mesh.vertices()) {
-    const Vec3& p = mesh.point(v);
-    const Eigen::Vector3d q(p[0], p[1], p[2]);
-    if (!grown.contains(q)) continue;
-    if (!tree.overlaps_any(Box3(q.array() - longest_edge, q.array() + longest_edge))) continue;
-    for (const HalfedgeHandle h : mesh.voh_range(v)) {
-      TrianglePoints t;
-      std::array<int, 3> g_ids;
-      if (!face_from_lowest_inside(mesh, h, grown, t, g_ids)) continue;
-      tree.query_box(triangle_box(t), [&](std::uint32_t c) {
-        if (!crossing[c] && triangles_intersect(triangles[c], ids[c], t, g_ids)) crossing[c] = 1;
+  const double reach_edge = reach.longest_edge;
+  for_each_face_near(
+      mesh, region, reach,
+      [&](const Eigen::Vector3d& q) {
+        return tree.overlaps_any(Box3(q.array() - reach_edge, q.array() + reach_edge));
+      },
+      [&](FaceHandle, const TrianglePoints& t, const std::array<int, 3>& g_ids) {
+        tree.query_box(triangle_box(t), [&](std::uint32_t c) {
+          if (!crossing[c] && triangles_intersect(triangles[c], ids[c], t, g_ids)) crossing[c] = 1;
+        });
+        return true;
       });
-    }
-  }
   for (std::size_t c = 0; c < triangles.size(); ++c)
     if (crossing[c]) out.push_back(c);
   return out;
@@ -174,13 +197,27 @@ std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
 std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
     double longest_edge) {
-  return intersections_of(mesh, faces, stop_after, longest_edge, true);
+  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
+  return intersections_of(mesh, faces, stop_after, SearchReach{longest_edge, {}}, true);
+}
+
+std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
+    const SearchReach& reach) {
+  return intersections_of(mesh, faces, stop_after, reach, true);
 }
 
 std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
     double longest_edge) {
-  return intersections_of(mesh, faces, stop_after, longest_edge, false);
+  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
+  return intersections_of(mesh, faces, stop_after, SearchReach{longest_edge, {}}, false);
+}
+
+std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
+    const SearchReach& reach) {
+  return intersections_of(mesh, faces, stop_after, reach, false);
 }
 
 bool projects_injectively(const Mesh& mesh, std::span<const FaceHandle> faces,

@@ -164,6 +164,8 @@ void push_down(const ServerProcess& server, int iterations) {
   fill.set_session_id(info.session_id());
   fill.mutable_selection()->set_all(true);
   fill.mutable_options()->set_shape(v1::PATCH_SHAPE_FAIR);
+  // Without crease retaining: the pushes are to restore the edge a rounded fill lost.
+  fill.mutable_options()->set_sharp(v1::SHARP_OFF);
   v1::EditResponse filled;
   a.fill_holes(fill, filled);
   v1::SharpEdgeRequest request;
