@@ -139,7 +139,8 @@ struct FillReport {
   std::vector<HoleFillReport> holes;
   std::vector<std::uint32_t> unknown_ids;  //!< requested ids that name no hole
   std::size_t holes_found = 0;
-  double prepare_seconds = 0;  //!< the per-mesh pass for the longest edge (not in any hole's time)
+  //! The per-mesh preparation (the longest edge; headroom in the arrays), in no hole's time.
+  double prepare_seconds = 0;
   std::size_t filled() const;
   std::size_t left_open() const;
 };

@@ -297,7 +297,7 @@ int main(int argc, char** argv) {
       if (phases)
         fmt::print(
             "|   phases of the scored run, ms: triangulate {:.3f}, refine {:.3f}, mend {:.3f}, "
-            "fair {:.3f}, check {:.3f}; longest edge (per mesh) {:.3f}\n",
+            "fair {:.3f}, check {:.3f}; per-mesh preparation (longest edge, headroom) {:.3f}\n",
             1e3 * h.phases.triangulate, 1e3 * h.phases.refine, 1e3 * h.phases.mend,
             1e3 * h.phases.fair, 1e3 * h.phases.check, 1e3 * report.prepare_seconds);
     }
