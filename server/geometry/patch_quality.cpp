@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <deque>
 #include <numbers>
+#include <utility>
 
 #include "server/geometry/face_set.h"
 #include "server/geometry/intersection.h"
@@ -76,7 +78,11 @@ class Patch {
                            kRadian)),
         flip_turn_cos_(std::cos(options.max_turn_deg * kRadian)),
         cap_cos_(std::cos(options.max_bisected_angle_deg * kRadian)),
-        goal_(std::sin(std::min(options.target_min_angle_deg, 60.0) * kRadian)) {}
+        goal_(std::sin(std::min(options.target_min_angle_deg, 60.0) * kRadian)),
+        position_(2 * faces.size() + 16) {
+    for (std::size_t i = 0; i < faces_.size(); ++i)
+      position_[faces_[i].idx()] = static_cast<std::uint32_t>(i);
+  }
 
   //! The worst triangle's shape (sin of its smallest angle).
   double min_shape() const {
@@ -91,11 +97,29 @@ class Patch {
   }
 
   //! The triangles below the goal (one pass over the patch; the passes below work on these).
-  std::vector<FaceHandle> bad_faces() const {
+  std::vector<FaceHandle> bad_faces() {
+    touched_.clear();
     std::vector<FaceHandle> out;
     for (const FaceHandle f : faces_)
       if (face_shape(mesh_, f) < goal_) out.push_back(f);
     return out;
+  }
+
+  //! The same as bad_faces() after the flips, moves and bisections since \p previous was found,
+  //! without a pass over the patch: only a triangle they changed or created can have become
+  //! bad. In the patch's order, as a pass gives them.
+  std::vector<FaceHandle> bad_faces_after(const std::vector<FaceHandle>& previous) {
+    std::vector<FaceHandle> candidates;
+    candidates.reserve(previous.size() + touched_.size());
+    LocalSet seen(2 * (previous.size() + touched_.size()) + 16);
+    for (const std::vector<FaceHandle>* list : {&previous, &std::as_const(touched_)})
+      for (const FaceHandle f : *list)
+        if (seen.insert(f.idx()) && face_shape(mesh_, f) < goal_) candidates.push_back(f);
+    touched_.clear();
+    std::sort(candidates.begin(), candidates.end(), [&](FaceHandle a, FaceHandle b) {
+      return *position_.find(a.idx()) < *position_.find(b.idx());
+    });
+    return candidates;
   }
 
   //! Flips interior edges while the smaller angle of the two triangles grows.
@@ -198,11 +222,14 @@ class Patch {
       if (!movable && after < before) continue;
       const VertexHandle v = mesh_.split(e, middle);
       new_vertices_.push_back(v);
-      for (const FaceHandle nf : mesh_.vf_range(v))
+      for (const FaceHandle nf : mesh_.vf_range(v)) {
         if (!set_.contains(nf)) {
           set_.insert(nf);
+          position_[nf.idx()] = static_cast<std::uint32_t>(faces_.size());
           faces_.push_back(nf);
         }
+        touched_.push_back(nf);
+      }
       ++splits;
     }
     return splits;
@@ -240,6 +267,8 @@ class Patch {
       if (!(length > 0) || OpenMesh::dot(n, reference) < flip_turn_cos_ * length) return false;
     }
     mesh_.flip(e);
+    touched_.push_back(mesh_.face_handle(h0));
+    touched_.push_back(mesh_.face_handle(h1));
     return true;
   }
 
@@ -332,6 +361,7 @@ class Patch {
     }
     if (chosen == p) return false;
     mesh_.set_point(v, chosen);
+    for (const FaceHandle f : mesh_.vf_range(v)) touched_.push_back(f);
     return true;
   }
 
@@ -346,6 +376,8 @@ class Patch {
   double cap_cos_;
   double goal_;  //!< sin of the target minimum angle
   double shortest_split_ = -1;
+  std::vector<FaceHandle> touched_;   //!< faces changed since the bad faces were last found
+  LocalMap<std::uint32_t> position_;  //!< face index -> its place in faces_
 };
 
 }  // namespace
@@ -367,18 +399,19 @@ PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& pa
   for (int round = 0; round < options.max_rounds && !bad.empty(); ++round) {
     report.rounds = round + 1;
     report.flips += patch.flip_pass(bad);
-    report.moves += patch.smooth_pass(patch.bad_faces());
-    bad = patch.bad_faces();
+    bad = patch.bad_faces_after(bad);
+    report.moves += patch.smooth_pass(bad);
+    bad = patch.bad_faces_after(bad);
     if (bad.empty()) break;
     const std::size_t splits = options.bisect ? patch.split_pass(bad) : 0;
-    bad = patch.bad_faces();
+    bad = patch.bad_faces_after(bad);
     report.splits += splits;
     if (splits == 0) break;  // nothing left to bisect
   }
   // Settle the last bisections (and any round cut short by the cap).
   if (!bad.empty()) {
     report.flips += patch.flip_pass(bad);
-    report.moves += patch.smooth_pass(patch.bad_faces());
+    report.moves += patch.smooth_pass(patch.bad_faces_after(bad));
   }
   report.min_angle_after_deg = shape_to_degrees(patch.min_shape());
   return report;
