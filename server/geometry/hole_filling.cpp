@@ -791,10 +791,19 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   const auto last_resort = [&](std::size_t m) {
     return methods[m] == FillMethod::EarClipping && options.methods.empty();
   };
+  // The crease split is the exception: its flat fallback comes right after its faired try,
+  // since the point of splitting is to keep the crease, which another method's faired patch
+  // rounds away (couplingdown_sharp #2: a balloon when faired; flat split 2.66‰ mean and 11.3‰
+  // crease against 3.06‰ and 12.9‰ for the faired 3D triangulation).
+  for (std::size_t m = 0; m < methods.size(); ++m) {
+    if (last_resort(m)) continue;
+    attempts.push_back({m, wants_fair(methods[m]), false});
+    if (methods[m] == FillMethod::CreaseSplit && wants_fair(methods[m]))
+      attempts.push_back({m, false, true});
+  }
   for (std::size_t m = 0; m < methods.size(); ++m)
-    if (!last_resort(m)) attempts.push_back({m, wants_fair(methods[m]), false});
-  for (std::size_t m = 0; m < methods.size(); ++m)
-    if (!last_resort(m) && wants_fair(methods[m])) attempts.push_back({m, false, true});
+    if (!last_resort(m) && wants_fair(methods[m]) && methods[m] != FillMethod::CreaseSplit)
+      attempts.push_back({m, false, true});
   for (std::size_t m = 0; m < methods.size(); ++m)
     if (last_resort(m)) {
       if (wants_fair(methods[m])) attempts.push_back({m, true, false});
