@@ -194,11 +194,16 @@ std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
   return out;
 }
 
+namespace {
+SearchReach reach_of(const Mesh& mesh, double longest_edge) {
+  return SearchReach{longest_edge > 0 ? longest_edge : max_edge_length(mesh), {}};
+}
+}  // namespace
+
 std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
     double longest_edge) {
-  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
-  return intersections_of(mesh, faces, stop_after, SearchReach{longest_edge, {}}, true);
+  return intersections_of(mesh, faces, stop_after, reach_of(mesh, longest_edge), true);
 }
 
 std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
@@ -210,8 +215,7 @@ std::vector<std::pair<FaceHandle, FaceHandle>> find_face_intersections(
 std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(
     const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
     double longest_edge) {
-  if (!(longest_edge > 0)) longest_edge = max_edge_length(mesh);
-  return intersections_of(mesh, faces, stop_after, SearchReach{longest_edge, {}}, false);
+  return intersections_of(mesh, faces, stop_after, reach_of(mesh, longest_edge), false);
 }
 
 std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_with_rest(

@@ -45,31 +45,29 @@ class PlanarGrid {
       points_in_[cell(points[i])].push_back(static_cast<int>(i));
   }
   void add_edge(int a, int b, const Point2& pa, const Point2& pb) {
-    const auto [x0, y0] = cell_xy(pa.cwiseMin(pb));
-    const auto [x1, y1] = cell_xy(pa.cwiseMax(pb));
-    for (int x = x0; x <= x1; ++x)
-      for (int y = y0; y <= y1; ++y)
-        edges_in_[static_cast<std::size_t>(y) * static_cast<std::size_t>(nx_) +
-                  static_cast<std::size_t>(x)]
-            .emplace_back(a, b);
+    for_each_cell(pa.cwiseMin(pb), pa.cwiseMax(pb),
+                  [&](std::size_t c) { edges_in_[c].emplace_back(a, b); });
   }
   //! visit(point index) for the points in the cells meeting [lo, hi].
   template <typename Visit>
   void points_in_box(const Point2& lo, const Point2& hi, Visit&& visit) const {
-    const auto [x0, y0] = cell_xy(lo);
-    const auto [x1, y1] = cell_xy(hi);
-    for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x)
-        for (const int i : points_in_[index(x, y)]) visit(i);
+    for_each_cell(lo, hi, [&](std::size_t c) {
+      for (const int i : points_in_[c]) visit(i);
+    });
   }
   //! visit(a, b) for the edges filed in the cells meeting [lo, hi] (an edge may come twice).
   template <typename Visit>
   void edges_in_box(const Point2& lo, const Point2& hi, Visit&& visit) const {
+    for_each_cell(lo, hi, [&](std::size_t c) {
+      for (const auto& [a, b] : edges_in_[c]) visit(a, b);
+    });
+  }
+  template <typename Visit>
+  void for_each_cell(const Point2& lo, const Point2& hi, Visit&& visit) const {
     const auto [x0, y0] = cell_xy(lo);
     const auto [x1, y1] = cell_xy(hi);
     for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x)
-        for (const auto& [a, b] : edges_in_[index(x, y)]) visit(a, b);
+      for (int x = x0; x <= x1; ++x) visit(index(x, y));
   }
   //! visit(point index) for the points of the cells at Chebyshev distance \p ring from the
   //! cell of \p centre; false once the ring lies wholly outside the grid.
