@@ -26,43 +26,18 @@ class TriangleBvh {
   std::size_t size() const { return triangles_.size(); }
   const TrianglePoints& triangle(std::size_t i) const { return triangles_[i]; }
 
-  //! Calls visit(triangle index) for every triangle whose box overlaps \p box.
+  //! Calls visit(triangle index) for every triangle in a leaf whose box overlaps \p box.
   template <typename Visit>
   void query_box(const Box3& box, Visit&& visit) const {
-    if (nodes_.empty()) return;
-    std::uint32_t stack[64];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[stack[--top]];
-      if (!node.box.intersects(box)) continue;
-      if (node.count > 0) {
-        for (std::uint32_t i = 0; i < node.count; ++i) visit(order_[node.first + i]);
-      } else if (top + 2 <= 64) {
-        stack[top++] = node.first;
-        stack[top++] = node.first + 1;
-      }
-    }
+    for_each_leaf_triangle(box, [&](std::uint32_t i) {
+      visit(i);
+      return false;
+    });
   }
 
   //! Whether any triangle's box overlaps \p box (stops at the first).
   bool overlaps_any(const Box3& box) const {
-    if (nodes_.empty()) return false;
-    std::uint32_t stack[64];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[stack[--top]];
-      if (!node.box.intersects(box)) continue;
-      if (node.count > 0) {
-        for (std::uint32_t i = 0; i < node.count; ++i)
-          if (boxes_[order_[node.first + i]].intersects(box)) return true;
-      } else if (top + 2 <= 64) {
-        stack[top++] = node.first;
-        stack[top++] = node.first + 1;
-      }
-    }
-    return false;
+    return for_each_leaf_triangle(box, [&](std::uint32_t i) { return boxes_[i].intersects(box); });
   }
 
   struct Closest {
@@ -75,6 +50,28 @@ class TriangleBvh {
   Closest closest_point(const Vec3& p) const;
 
  private:
+  //! Walks the leaves whose boxes overlap \p box and calls stop(triangle index) for their
+  //! triangles until it returns true; returns whether it did.
+  template <typename Stop>
+  bool for_each_leaf_triangle(const Box3& box, Stop&& stop) const {
+    if (nodes_.empty()) return false;
+    std::uint32_t stack[64];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      if (!node.box.intersects(box)) continue;
+      if (node.count > 0) {
+        for (std::uint32_t i = 0; i < node.count; ++i)
+          if (stop(order_[node.first + i])) return true;
+      } else if (top + 2 <= 64) {
+        stack[top++] = node.first;
+        stack[top++] = node.first + 1;
+      }
+    }
+    return false;
+  }
+
   struct Node {
     Box3 box;
     std::uint32_t first = 0;  // leaf: first index into order_; inner: left child (right = +1)

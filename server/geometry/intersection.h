@@ -1,9 +1,11 @@
 #pragma once
 
 //! \file intersection.h
-//! \brief Triangle-triangle intersection (with shared-vertex handling) and closest points.
+//! \brief Triangle primitives: intersection (with shared-vertex handling), closest points, and
+//! the shape measure the triangulations and the quality pass compare triangles by.
 
 #include <array>
+#include <cmath>
 
 #include "server/geometry/mesh.h"
 
@@ -29,5 +31,25 @@ double segment_segment_distance2(const Vec3& p1, const Vec3& q1, const Vec3& p2,
 
 //! Distance between segment [p, q] and triangle t.
 double segment_triangle_distance(const Vec3& p, const Vec3& q, const TrianglePoints& t);
+
+//! sin of a triangle's smallest angle, given twice its area: the angle is the one opposite the
+//! shortest side and never above 60°, where the sine grows with the angle, so comparing these
+//! compares smallest angles without trigonometry (evaluated O(n³) times by the 3D
+//! triangulation and for every candidate move of the quality pass, hence inline).
+inline double min_angle_sine(const Vec3& a, const Vec3& b, const Vec3& c, double twice_area) {
+  const double ab = (b - a).sqrnorm(), bc = (c - b).sqrnorm(), ca = (a - c).sqrnorm();
+  double product;  // the two sides at the smallest angle
+  if (ab <= bc && ab <= ca)
+    product = bc * ca;
+  else if (bc <= ca)
+    product = ab * ca;
+  else
+    product = ab * bc;
+  return product > 0 ? twice_area / std::sqrt(product) : 0.0;
+}
+
+inline double min_angle_sine(const Vec3& a, const Vec3& b, const Vec3& c) {
+  return min_angle_sine(a, b, c, OpenMesh::cross(b - a, c - a).norm());
+}
 
 }  // namespace touchmend::geometry

@@ -7,13 +7,15 @@
 
 #include <fmt/format.h>
 
+#include "server/geometry/intersection.h"
+
 namespace touchmend::geometry {
 namespace {
 
 struct Weight {
   double angle = 0;  // largest dihedral deviation, radians
   double area = 0;
-  //! Smallest triangle angle, as the sine-free measure of triangle_shape (larger is better).
+  //! Smallest triangle angle, as the min_angle_sine of intersection.h (larger is better).
   double shape = 1;
   // Angles closer than kAngleTie (in the bend measure below, ~1e-9 rad) are equal, so that
   // coplanar candidates, whose angles differ only by rounding, are ranked by area as the
@@ -36,22 +38,6 @@ struct Weight {
 
 constexpr Weight kInvalid{std::numeric_limits<double>::infinity(),
                           std::numeric_limits<double>::infinity(), 0.0};
-
-//! A measure of a triangle's smallest angle that grows with it and needs no trigonometry: the
-//! smallest of the three (2·area / product of the two sides at a corner) = sin of that corner,
-//! taken at the corner opposite the shortest side (the smallest angle).
-double triangle_shape(const Vec3& a, const Vec3& b, const Vec3& c, double area) {
-  const double ab = (b - a).sqrnorm(), bc = (c - b).sqrnorm(), ca = (a - c).sqrnorm();
-  // The smallest angle is opposite the shortest side; its sine is 2·area / (the other two).
-  double product;
-  if (ab <= bc && ab <= ca)
-    product = bc * ca;
-  else if (bc <= ca)
-    product = ab * ca;
-  else
-    product = ab * bc;
-  return product > 0 ? 2 * area / std::sqrt(product) : 0.0;
-}
 
 //! A measure of the angle between unit normals that grows with the angle on [0, π] and needs
 //! no trigonometry (the DP evaluates it O(n^3) times): sin² below 90°, 2 - sin² above. It is
@@ -143,7 +129,7 @@ LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop,
         if (i == 0 && k == n - 1)
           angle = std::max(angle, angle_between(nrm, boundary_normal[n - 1]));
         const Weight w =
-            left + right + Weight{angle, area, triangle_shape(loop[i], loop[m], loop[k], area)};
+            left + right + Weight{angle, area, min_angle_sine(loop[i], loop[m], loop[k], 2 * area)};
         if (w < best) {
           best = w;
           best_m = m;

@@ -17,20 +17,9 @@ namespace {
 
 constexpr double kRadian = std::numbers::pi / 180.0;
 
-//! sin of a triangle's smallest angle: the angle opposite the shortest side, never above 60°,
-//! where the sine grows with the angle, so comparing these compares the smallest angles without
-//! any trigonometry (this pass evaluates it for every candidate of every move and flip).
+//! sin of the smallest angle (intersection.h): compares smallest angles without trigonometry.
 double triangle_shape(const Vec3& a, const Vec3& b, const Vec3& c) {
-  const double ab = (b - a).sqrnorm(), bc = (c - b).sqrnorm(), ca = (a - c).sqrnorm();
-  double product;  // the two sides at the smallest angle
-  if (ab <= bc && ab <= ca)
-    product = bc * ca;
-  else if (bc <= ca)
-    product = ab * ca;
-  else
-    product = ab * bc;
-  const double twice_area = OpenMesh::cross(b - a, c - a).norm();
-  return product > 0 ? twice_area / std::sqrt(product) : 0.0;
+  return min_angle_sine(a, b, c);
 }
 
 //! cos of a triangle's largest angle (opposite the longest side).
