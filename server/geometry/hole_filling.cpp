@@ -87,43 +87,90 @@ struct TopologyPatch {
   std::vector<int> piece_of_triangle;  //!< CreaseSplit: the region of each triangle
 };
 
-//! Indices (into \p triangles) of the triangles over the loop that intersect a face of the
-//! mesh or another of them.
-//! Through \p index (many small queries: ear clipping's ears), or with one scan of the points
-//! near the triangles when it is null (a whole triangulation at once).
-std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& hole,
-                                                const LoopData& loop, const FaceIndex* index,
-                                                const SearchReach& reach,
-                                                const std::vector<std::array<int, 3>>& triangles) {
+//! Calls \p on_crossing(face corners, face ids) for each face of \p index that triangle
+//! (\p points, corner vertex ids \p ids) intersects, while it returns true.
+template <typename OnCrossing>
+void for_each_face_crossed(const Mesh& mesh, const FaceIndex& index, const TrianglePoints& points,
+                           const std::array<int, 3>& ids, OnCrossing&& on_crossing) {
+  bool more = true;
+  index.for_each_in_box(mesh, triangle_box(points), [&](FaceHandle f) {
+    if (!more) return;
+    TrianglePoints other;
+    std::array<int, 3> other_ids;
+    int k = 0;
+    for (const VertexHandle v : mesh.fv_range(f)) {
+      other[static_cast<std::size_t>(k)] = mesh.point(v);
+      other_ids[static_cast<std::size_t>(k++)] = v.idx();
+    }
+    if (triangles_intersect(points, ids, other, other_ids)) more = on_crossing(other, other_ids);
+  });
+}
+
+//! Corner points and mesh vertex ids of a triangle over the loop.
+void loop_triangle(const Hole& hole, const LoopData& loop, const std::array<int, 3>& corners,
+                   TrianglePoints& points, std::array<int, 3>& ids) {
+  for (std::size_t c = 0; c < 3; ++c) {
+    const auto corner = static_cast<std::size_t>(corners[c]);
+    points[c] = loop.points[corner];
+    ids[c] = hole.loop[corner].idx();
+  }
+}
+
+//! Indices (into \p triangles, a solution of the 3D triangulation over the loop) of the
+//! triangles that intersect a face of the mesh or each other. \p crosses_mesh keeps each
+//! triangle's verdict against the mesh (by forbidden_key) over the avoiding rounds, so a round
+//! tests only the triangles it has not seen, each through the index of the faces near the
+//! hole; the triangles are always tested against each other. The chords found to pass
+//! through a mesh face themselves are added to \p crossing_chords.
+std::vector<std::size_t> triangles_crossing(const Mesh& mesh, const Hole& hole,
+                                            const LoopData& loop, const FaceIndex& index,
+                                            const std::vector<std::array<int, 3>>& triangles,
+                                            std::unordered_map<std::uint64_t, bool>& crosses_mesh,
+                                            std::vector<std::pair<int, int>>& crossing_chords) {
+  const int n = static_cast<int>(loop.points.size());
   std::vector<TrianglePoints> points(triangles.size());
   std::vector<std::array<int, 3>> ids(triangles.size());
-  for (std::size_t t = 0; t < triangles.size(); ++t)
-    for (std::size_t c = 0; c < 3; ++c) {
-      const auto corner = static_cast<std::size_t>(triangles[t][c]);
-      points[t][c] = loop.points[corner];
-      ids[t][c] = hole.loop[corner].idx();
-    }
   std::vector<char> bad(triangles.size(), 0);
-  if (!index)
-    for (const std::size_t t : triangles_crossing_mesh(mesh, points, ids, reach)) bad[t] = 1;
   for (std::size_t t = 0; t < triangles.size(); ++t) {
-    if (index)
-      index->for_each_in_box(mesh, triangle_box(points[t]), [&](FaceHandle f) {
-        if (bad[t]) return;
-        TrianglePoints other;
-        std::array<int, 3> other_ids;
-        int k = 0;
-        for (const VertexHandle v : mesh.fv_range(f)) {
-          other[static_cast<std::size_t>(k)] = mesh.point(v);
-          other_ids[static_cast<std::size_t>(k++)] = v.idx();
-        }
-        if (triangles_intersect(points[t], ids[t], other, other_ids)) bad[t] = 1;
-      });
+    loop_triangle(hole, loop, triangles[t], points[t], ids[t]);
+    std::array<int, 3> sorted = triangles[t];
+    std::sort(sorted.begin(), sorted.end());
+    const auto [verdict, unseen] =
+        crosses_mesh.try_emplace(forbidden_key(sorted[0], sorted[1], sorted[2], n), false);
+    if (unseen) {
+      // A chord (an edge that is not a boundary edge) that itself passes through a mesh face
+      // makes every triangle on it cross the mesh: it is forbidden as a whole, which ends in
+      // one round what forbidding its triangles one by one takes many for.
+      std::array<bool, 3> chord_crosses{false, false, false};
+      for_each_face_crossed(
+          mesh, index, points[t], ids[t],
+          [&](const TrianglePoints& other, const std::array<int, 3>& other_ids) {
+            verdict->second = true;
+            for (std::size_t e = 0; e < 3; ++e) {
+              const int a = triangles[t][e], b = triangles[t][(e + 1) % 3];
+              if (chord_crosses[e] || std::abs(a - b) == 1 || std::abs(a - b) == n - 1) continue;
+              // A face at one of the chord's ends touches it there: only faces apart from both
+              // ends are a proof.
+              const int va = ids[t][e], vb = ids[t][(e + 1) % 3];
+              if (std::find(other_ids.begin(), other_ids.end(), va) != other_ids.end() ||
+                  std::find(other_ids.begin(), other_ids.end(), vb) != other_ids.end())
+                continue;
+              chord_crosses[e] =
+                  segment_intersects_triangle(points[t][e], points[t][(e + 1) % 3], other);
+            }
+            return true;
+          });
+      for (std::size_t e = 0; e < 3; ++e)
+        if (chord_crosses[e])
+          crossing_chords.emplace_back(triangles[t][e], triangles[t][(e + 1) % 3]);
+    }
+    bad[t] = verdict->second ? 1 : 0;
+  }
+  for (std::size_t t = 0; t < triangles.size(); ++t)
     for (std::size_t u = t + 1; u < triangles.size(); ++u)
       if (triangle_box(points[t]).intersects(triangle_box(points[u])) &&
           triangles_intersect(points[t], ids[t], points[u], ids[u]))
         bad[t] = bad[u] = 1;
-  }
   std::vector<std::size_t> out;
   for (std::size_t t = 0; t < triangles.size(); ++t)
     if (bad[t]) out.push_back(t);
@@ -132,14 +179,14 @@ std::vector<std::size_t> intersecting_triangles(const Mesh& mesh, const Hole& ho
 
 //! \p avoid_intersections (the 3D triangulation, for a patch that will stay flat, so keeps its
 //! triangles' surface): the triangles of the minimum-dihedral solution that intersect the mesh
-//! or each other are forbidden and the problem is solved again, until a solution is clean (ours:
+//! or each other, and the chords that pass through the mesh, are forbidden and the problem is
+//! solved again (only the intervals around them), until a solution is clean (ours:
 //! Liepa's weight knows nothing of the surroundings, CGAL's fills intersect the mesh where ours
 //! would be refused).
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
                           const LoopData& loop, const FillOptions& options,
                           const std::function<const FaceIndex&()>& index_near_hole,
-                          const SearchReach& reach, const HoleCreasePlan* creases,
-                          bool avoid_intersections = false) {
+                          const HoleCreasePlan* creases, bool avoid_intersections = false) {
   TopologyPatch out;
   if (method == FillMethod::CreaseSplit) {
     if (creases == nullptr || creases->curves.empty()) {
@@ -186,8 +233,16 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
     in.opposite = loop.opposite;
     in.blocked = loop.blocked;
     in.crosses_mesh = [&](const std::array<int, 3>& corners) {
-      return !intersecting_triangles(mesh, hole, loop, &index_near_hole(), reach, {corners})
-                  .empty();
+      TrianglePoints points;
+      std::array<int, 3> ids;
+      loop_triangle(hole, loop, corners, points, ids);
+      bool crosses = false;
+      for_each_face_crossed(mesh, index_near_hole(), points, ids,
+                            [&](const TrianglePoints&, const std::array<int, 3>&) {
+                              crosses = true;
+                              return false;
+                            });
+      return crosses;
     };
     EarClipping t = clip_ears(in);
     out.ok = t.ok;
@@ -198,20 +253,25 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
   if (method == FillMethod::MinimumWeight3d) {
     LiepaTriangulationOptions dp;
     dp.max_vertices = options.max_dp_vertices;
-    std::unordered_set<std::uint64_t> forbidden;
-    dp.forbidden = &forbidden;
+    // The rounds keep the DP's tables: a forbidden triangle changes only the intervals that
+    // contain it (MinDihedralTriangulator).
+    MinDihedralTriangulator solver(loop.points, loop.opposite, loop.blocked, dp);
+    // Whether a triangle crosses the mesh depends on the triangle alone: each is tested once
+    // over the rounds (most of a solution is the previous round's).
+    std::unordered_map<std::uint64_t, bool> crosses_mesh;
+    std::vector<std::pair<int, int>> crossing_chords;
     const int n = static_cast<int>(loop.points.size());
     // Rounds shrink with the cubic cost of a solve: about 4·10^7 candidate triangles in all.
     const int rounds = std::clamp(static_cast<int>(4e7 / (static_cast<double>(n) * n * n)), 1,
                                   std::max(1, options.max_avoiding_rounds));
     for (int round = 0;; ++round) {
-      LiepaTriangulation t = triangulate_min_dihedral(loop.points, loop.opposite, loop.blocked, dp);
+      LiepaTriangulation t = solver.solve();
       out.ok = t.ok;
       out.failure = t.failure;
       out.triangles = std::move(t.triangles);
       if (!out.ok || !avoid_intersections) return out;
-      const std::vector<std::size_t> bad =
-          intersecting_triangles(mesh, hole, loop, nullptr, reach, out.triangles);
+      const std::vector<std::size_t> bad = triangles_crossing(
+          mesh, hole, loop, index_near_hole(), out.triangles, crosses_mesh, crossing_chords);
       if (bad.empty()) return out;
       if (round + 1 >= rounds) {
         out.ok = false;
@@ -220,11 +280,9 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
             round + 1, bad.size());
         return out;
       }
-      for (const std::size_t b : bad) {
-        std::array<int, 3> c = out.triangles[b];
-        std::sort(c.begin(), c.end());
-        forbidden.insert(forbidden_key(c[0], c[1], c[2], n));
-      }
+      for (const std::size_t b : bad) solver.forbid(out.triangles[b]);
+      for (const auto& [a, b] : crossing_chords) solver.forbid_chord(a, b);
+      crossing_chords.clear();
     }
   }
   // Piecewise: chords must clear the surrounding surface. Collect the faces near the hole once.
@@ -356,16 +414,42 @@ struct ShapeDecision {
   std::string reason;
 };
 
-double dihedral_deg(const Mesh& mesh, EdgeHandle e) {
-  const Vec3 a = mesh.calc_face_normal(mesh.face_handle(mesh.halfedge_handle(e, 0)));
-  const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.halfedge_handle(e, 1)));
-  return std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) * 180.0 / std::numbers::pi;
+//! Unit face normals of a hole's neighbourhood, each computed once: the shape decision reads
+//! every face around the boundary and every edge within two rings, most faces several times.
+class FaceNormals {
+ public:
+  FaceNormals(const Mesh& mesh, std::size_t expected) : mesh_(mesh), normals_(expected) {}
+
+  Vec3 operator()(FaceHandle f) {
+    if (const Vec3* n = normals_.find(f.idx())) return *n;
+    const Vec3 n = mesh_.calc_face_normal(f);
+    normals_.insert(f.idx(), n);
+    return n;
+  }
+
+  //! Cosine of the dihedral angle at interior edge \p e (the angle between its faces'
+  //! normals; 1 when either face is degenerate). The decisions compare and rank these
+  //! cosines, so the angle itself (an atan2) is computed only for what is reported.
+  double dihedral_cos(EdgeHandle e) {
+    const Vec3 a = (*this)(mesh_.face_handle(mesh_.halfedge_handle(e, 0)));
+    const Vec3 b = (*this)(mesh_.face_handle(mesh_.halfedge_handle(e, 1)));
+    if (a.sqrnorm() == 0 || b.sqrnorm() == 0) return 1.0;
+    return std::clamp(OpenMesh::dot(a, b), -1.0, 1.0);
+  }
+
+ private:
+  const Mesh& mesh_;
+  LocalMap<Vec3> normals_;
+};
+
+double degrees_of_cos(double c) {
+  return std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / std::numbers::pi;
 }
 
 //! Median dihedral angle (degrees) of the edges within two rings of the hole's boundary. A CAD
 //! part's neighbourhood is mostly exactly coplanar pairs (median ~0), a scanned or organic
 //! surface bends a little at every edge (median of several degrees on the shared cases).
-double median_dihedral_near(const Mesh& mesh, const Hole& hole) {
+double median_dihedral_near(const Mesh& mesh, const Hole& hole, FaceNormals& normals) {
   std::vector<VertexHandle> ring(hole.loop.begin(), hole.loop.end());
   LocalSet seen_vertex(8 * ring.size());
   for (const VertexHandle v : ring) seen_vertex.insert(v.idx());
@@ -377,18 +461,20 @@ double median_dihedral_near(const Mesh& mesh, const Hole& hole) {
         if (seen_vertex.insert(w.idx())) ring.push_back(w);
     begin = end;
   }
-  std::vector<double> angles;
+  std::vector<double> cosines;
   LocalSet seen_edge(4 * ring.size());
   for (const VertexHandle v : ring)
     for (const HalfedgeHandle h : mesh.voh_range(v)) {
       const EdgeHandle e = mesh.edge_handle(h);
       if (mesh.is_boundary(e) || !seen_edge.insert(e.idx())) continue;
-      angles.push_back(dihedral_deg(mesh, e));
+      cosines.push_back(normals.dihedral_cos(e));
     }
-  if (angles.empty()) return 0.0;
-  const auto mid = angles.begin() + static_cast<std::ptrdiff_t>(angles.size() / 2);
-  std::nth_element(angles.begin(), mid, angles.end());
-  return *mid;
+  if (cosines.empty()) return 0.0;
+  // The median angle is the median cosine (the angle falls as the cosine rises); with the
+  // descending order below, the element at size/2 is the same one a sort of angles picks.
+  const auto mid = cosines.begin() + static_cast<std::ptrdiff_t>(cosines.size() / 2);
+  std::nth_element(cosines.begin(), mid, cosines.end(), std::greater<>());
+  return degrees_of_cos(*mid);
 }
 
 //! Auto shape (ALGORITHMS.md §2.5 and BASELINE.md's observations): fairing wins on smooth
@@ -405,35 +491,40 @@ double median_dihedral_near(const Mesh& mesh, const Hole& hole) {
 ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions& options) {
   ShapeDecision d;
   const Vec3 n = hole.reference_normal.norm() > 0 ? hole.reference_normal : hole.normal;
-  double max_dev = 0;
-  std::vector<char> seen;
-  // Dihedral angles of the edges at the boundary vertices. A crease is an edge well above
-  // both the feature angle and the typical bending of this neighbourhood (3x the median), so
-  // that a coarse but smooth mesh (large dihedrals everywhere) is not taken for a CAD part.
-  std::vector<double> dihedrals;
+  FaceNormals normals(mesh, 32 * hole.loop.size());
+  // Smallest cosine between a face around the boundary and the hole's normal.
+  double min_cos = 1.0;
+  LocalSet seen(8 * hole.loop.size());
+  // Dihedral angles (as cosines) of the edges at the boundary vertices. A crease is an edge
+  // well above both the feature angle and the typical bending of this neighbourhood (3x the
+  // median), so that a coarse but smooth mesh (large dihedrals everywhere) is not taken for a
+  // CAD part.
+  std::vector<double> dihedral_cosines;
   for (const VertexHandle v : hole.loop) {
     for (const FaceHandle f : mesh.vf_range(v)) {
-      const auto i = static_cast<std::size_t>(f.idx());
-      if (i >= seen.size()) seen.resize(i + 1, 0);
-      if (seen[i]) continue;
-      seen[i] = 1;
-      const Vec3 fn = mesh.calc_face_normal(f);
-      if (fn.norm() == 0) continue;
-      max_dev = std::max(max_dev, std::acos(std::clamp(OpenMesh::dot(fn, n), -1.0, 1.0)));
+      if (!seen.insert(f.idx())) continue;
+      const Vec3 fn = normals(f);
+      if (fn.sqrnorm() == 0) continue;
+      min_cos = std::min(min_cos, std::clamp(OpenMesh::dot(fn, n), -1.0, 1.0));
     }
     for (const HalfedgeHandle h : mesh.voh_range(v)) {
       if (mesh.is_boundary(mesh.edge_handle(h))) continue;
-      dihedrals.push_back(dihedral_deg(mesh, mesh.edge_handle(h)));
+      dihedral_cosines.push_back(normals.dihedral_cos(mesh.edge_handle(h)));
     }
   }
   std::size_t sharp_edges = 0;
-  if (!dihedrals.empty()) {
-    std::vector<double> sorted = dihedrals;
-    std::nth_element(sorted.begin(),
-                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-    const double threshold = std::max(options.feature_angle_deg, 3.0 * sorted[sorted.size() / 2]);
-    for (const double angle : dihedrals) sharp_edges += angle > threshold ? 1 : 0;
+  if (!dihedral_cosines.empty()) {
+    std::vector<double> sorted = dihedral_cosines;
+    const auto mid = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
+    std::nth_element(sorted.begin(), mid, sorted.end(), std::greater<>());
+    const double threshold_deg = std::max(options.feature_angle_deg, 3.0 * degrees_of_cos(*mid));
+    // Above 180 degrees nothing is sharp; below, an angle exceeds the threshold exactly when its
+    // cosine is below the threshold's.
+    const double threshold_cos =
+        threshold_deg >= 180.0 ? -2.0 : std::cos(threshold_deg * std::numbers::pi / 180.0);
+    for (const double c : dihedral_cosines) sharp_edges += c < threshold_cos ? 1 : 0;
   }
+  const double max_dev = std::acos(min_cos);
   const double max_dev_deg = max_dev * 180.0 / std::numbers::pi;
   const double size = std::max(hole.perimeter / std::numbers::pi, 1e-300);
   const double planarity = hole.planarity / size;
@@ -444,7 +535,7 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
         "planar surroundings (neighbour normals within {:.1f} deg of the hole plane)", max_dev_deg);
     return d;
   }
-  const double median = median_dihedral_near(mesh, hole);
+  const double median = median_dihedral_near(mesh, hole, normals);
   const bool piecewise_planar = median < options.piecewise_planar_median_deg;
   d.crease_regions = piecewise_planar ? PatchShape::Flat : PatchShape::Fair;
   if (sharp_edges >= 2) {
@@ -828,7 +919,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
           continue;
         }
         const auto t0 = Clock::now();
-        topology = triangulate(method, mesh, hole, loop, options, region_index, reach,
+        topology = triangulate(method, mesh, hole, loop, options, region_index,
                                creases ? &*creases : nullptr, avoid);
         attempt_phases.triangulate += std::chrono::duration<double>(Clock::now() - t0).count();
         if (!topology->ok) {

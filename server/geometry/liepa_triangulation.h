@@ -47,4 +47,58 @@ LiepaTriangulation triangulate_min_dihedral(std::span<const Vec3> loop,
                                             std::span<const std::pair<int, int>> blocked,
                                             const LiepaTriangulationOptions& options = {});
 
+//! triangulate_min_dihedral for a sequence of solves that differ only by triangles forbidden
+//! in between (the fill's rounds that forbid what crossed the mesh). The interval tables are
+//! kept: the best triangulation of sub-polygon (i, k) depends only on the candidates inside
+//! it, so forbidding triangle (a, b, c) changes only the intervals i <= a, c <= k, and only
+//! those are solved again (the same result as solving from scratch, at a fraction of the
+//! O(n^3) cost when the forbidden triangles do not span the loop).
+class MinDihedralTriangulator {
+ public:
+  MinDihedralTriangulator(std::span<const Vec3> loop, std::span<const Vec3> opposite,
+                          std::span<const std::pair<int, int>> blocked,
+                          const LiepaTriangulationOptions& options = {});
+
+  //! The best triangulation that uses no forbidden triangle.
+  LiepaTriangulation solve();
+  //! Forbids the triangle on these three loop indices (any order) for the next solve.
+  void forbid(std::array<int, 3> corners);
+  //! Forbids the chord between loop indices \p a and \p b (not a boundary edge): no triangle
+  //! of the next solve has it as an edge.
+  void forbid_chord(int a, int b);
+  //! Intervals (i, k) solved so far, over all solves (how much work the tables saved).
+  std::size_t intervals_solved() const { return intervals_solved_; }
+
+ private:
+  struct Weight {
+    double angle = 0;  //!< largest dihedral deviation (angle_between's measure)
+    double area = 0;
+    double shape = 1;  //!< smallest triangle angle, as min_angle_sine (larger is better)
+    bool operator<(const Weight& o) const;
+    Weight operator+(const Weight& o) const;
+  };
+  std::size_t at(int i, int k) const {
+    return static_cast<std::size_t>(i) * static_cast<std::size_t>(n_) + static_cast<std::size_t>(k);
+  }
+  bool is_forbidden(int i, int m, int k) const;
+
+  int n_ = 0;
+  std::string failure_;
+  std::vector<Vec3> loop_;
+  std::vector<Vec3> boundary_normal_;  //!< of the mesh triangle across boundary edge i -> i+1
+  std::vector<char> blocked_;          //!< n x n: pairs joined by a mesh edge outside the hole
+  double min_area_ = 0;
+  const std::unordered_set<std::uint64_t>* external_forbidden_ = nullptr;
+  std::unordered_set<std::uint64_t> forbidden_;
+  //! Per i: the smallest k of a triangle forbidden since the last solve whose first corner is
+  //! >= i (suffix minimum): interval (i, k) must be solved again iff k >= dirty_from_[i].
+  std::vector<int> dirty_from_;
+  bool solved_once_ = false;
+  std::vector<Weight> weight_;
+  std::vector<int> lambda_;
+  //! Normal of the triangle chosen for interval (i, k): the neighbour across edge (i, k).
+  std::vector<Vec3> chosen_normal_;
+  std::size_t intervals_solved_ = 0;
+};
+
 }  // namespace touchmend::geometry

@@ -103,5 +103,79 @@ TEST(MinimumDihedralTriangulation, ForbiddenTrianglesAreNeverUsed) {
   }
 }
 
+//! A bumpy 3D loop (no two candidates tie), for the incremental solves.
+void bumpy_loop(int n, std::vector<Vec3>& loop, std::vector<Vec3>& opposite) {
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * std::numbers::pi * i / n;
+    loop.emplace_back(std::cos(a) * (1 + 0.1 * std::sin(3 * a)), std::sin(a),
+                      0.3 * std::cos(2 * a) + 0.05 * std::sin(5 * a));
+  }
+  for (int i = 0; i < n; ++i)
+    opposite.push_back(0.5 * (loop[i] + loop[(i + 1) % n]) * 1.5 + Vec3(0, 0, -0.1));
+}
+
+TEST(MinimumDihedralTriangulation, IncrementalSolvesMatchSolvingFromScratch) {
+  // Rounds that forbid a few triangles each (as the fill's avoiding rounds do): every solve of
+  // the kept tables equals a solve from scratch with the same forbidden set, and the later
+  // solves redo only part of the intervals.
+  std::vector<Vec3> loop, opposite;
+  const int n = 24;
+  bumpy_loop(n, loop, opposite);
+  MinDihedralTriangulator solver(loop, opposite, {});
+  std::unordered_set<std::uint64_t> forbidden;
+  LiepaTriangulationOptions scratch;
+  scratch.forbidden = &forbidden;
+  const std::size_t all_intervals = static_cast<std::size_t>((n - 1) * (n - 2) / 2);
+  for (int round = 0; round < 6; ++round) {
+    const auto kept = solver.solve();
+    const auto fresh = triangulate_min_dihedral(loop, opposite, {}, scratch);
+    ASSERT_EQ(kept.ok, fresh.ok) << "round " << round;
+    if (!kept.ok) break;
+    EXPECT_EQ(kept.triangles, fresh.triangles) << "round " << round;
+    if (round == 0) {
+      EXPECT_EQ(solver.intervals_solved(), all_intervals);
+    }
+    // Forbid the solution's smallest-span triangle (a local change).
+    auto pick = *std::min_element(kept.triangles.begin(), kept.triangles.end(), [](auto a, auto b) {
+      std::sort(a.begin(), a.end());
+      std::sort(b.begin(), b.end());
+      return a[2] - a[0] < b[2] - b[0];
+    });
+    solver.forbid(pick);
+    std::sort(pick.begin(), pick.end());
+    forbidden.insert(forbidden_key(pick[0], pick[1], pick[2], n));
+  }
+  EXPECT_LT(solver.intervals_solved(), 6 * all_intervals);
+}
+
+TEST(MinimumDihedralTriangulation, ForbiddenChordIsNoTrianglesEdge) {
+  std::vector<Vec3> loop, opposite;
+  const int n = 14;
+  bumpy_loop(n, loop, opposite);
+  MinDihedralTriangulator solver(loop, opposite, {});
+  const auto first = solver.solve();
+  ASSERT_TRUE(first.ok) << first.failure;
+  // Forbid every chord of the first solution.
+  std::vector<std::pair<int, int>> chords;
+  for (const auto& t : first.triangles)
+    for (int e = 0; e < 3; ++e) {
+      const int a = std::min(t[e], t[(e + 1) % 3]), b = std::max(t[e], t[(e + 1) % 3]);
+      if (b - a != 1 && b - a != n - 1) chords.emplace_back(a, b);
+    }
+  ASSERT_FALSE(chords.empty());
+  for (const auto& [a, b] : chords) solver.forbid_chord(b, a);  // either order
+  solver.forbid_chord(0, 1);                                    // a boundary edge: ignored
+  const auto second = solver.solve();
+  ASSERT_TRUE(second.ok) << second.failure;
+  EXPECT_EQ(second.triangles.size(), static_cast<std::size_t>(n - 2));
+  for (const auto& t : second.triangles)
+    for (int e = 0; e < 3; ++e) {
+      const std::pair<int, int> edge(std::min(t[e], t[(e + 1) % 3]),
+                                     std::max(t[e], t[(e + 1) % 3]));
+      EXPECT_EQ(std::count(chords.begin(), chords.end(), edge), 0)
+          << edge.first << "-" << edge.second;
+    }
+}
+
 }  // namespace
 }  // namespace touchmend::geometry
