@@ -177,6 +177,12 @@ std::vector<std::size_t> triangles_crossing(const Mesh& mesh, const Hole& hole,
   return out;
 }
 
+//! The 3D triangulation's tables, kept between a hole's attempts (see triangulate).
+struct SharedDpTables {
+  std::optional<MinDihedralTriangulator> tables;
+  bool constrained = false;  //!< triangles or chords have been forbidden in them
+};
+
 //! \p avoid_intersections (the 3D triangulation, for a patch that will stay flat, so keeps its
 //! triangles' surface): the triangles of the minimum-dihedral solution that intersect the mesh
 //! or each other, and the chords that pass through the mesh, are forbidden and the problem is
@@ -186,7 +192,8 @@ std::vector<std::size_t> triangles_crossing(const Mesh& mesh, const Hole& hole,
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
                           const LoopData& loop, const FillOptions& options,
                           const std::function<const FaceIndex&()>& index_near_hole,
-                          const HoleCreasePlan* creases, bool avoid_intersections = false) {
+                          const HoleCreasePlan* creases, SharedDpTables& dp_tables,
+                          bool avoid_intersections = false) {
   TopologyPatch out;
   if (method == FillMethod::CreaseSplit) {
     if (creases == nullptr || creases->curves.empty()) {
@@ -251,11 +258,20 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
     return out;
   }
   if (method == FillMethod::MinimumWeight3d) {
-    LiepaTriangulationOptions dp;
-    dp.max_vertices = options.max_dp_vertices;
     // The rounds keep the DP's tables: a forbidden triangle changes only the intervals that
-    // contain it (MinDihedralTriangulator).
-    MinDihedralTriangulator solver(loop.points, loop.opposite, loop.blocked, dp);
+    // contain it (MinDihedralTriangulator). The tables of the unconstrained solve (the faired
+    // attempt's) are the avoiding solve's first round, so they are shared through \p dp_tables
+    // as long as nothing has been forbidden in them.
+    std::optional<MinDihedralTriangulator> local_tables;
+    std::optional<MinDihedralTriangulator>& tables =
+        dp_tables.constrained ? local_tables : dp_tables.tables;
+    if (!tables) {
+      LiepaTriangulationOptions dp;
+      dp.max_vertices = options.max_dp_vertices;
+      tables.emplace(loop.points, loop.opposite, loop.blocked, dp);
+    }
+    MinDihedralTriangulator& solver = *tables;
+    if (&tables == &dp_tables.tables && avoid_intersections) dp_tables.constrained = true;
     // Whether a triangle crosses the mesh depends on the triangle alone: each is tested once
     // over the rounds (most of a solution is the previous round's).
     std::unordered_map<std::uint64_t, bool> crosses_mesh;
@@ -819,6 +835,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   // against the mesh (piecewise chords, the avoiding 3D triangulation, ear clipping): gathered
   // once, when one of them first asks.
   std::optional<FaceIndex> near_hole;
+  SharedDpTables dp_tables;
   const auto region_index = [&]() -> const FaceIndex& {
     if (!near_hole) near_hole.emplace(mesh, faces_in_box(mesh, hole_region(hole, loop), reach));
     return *near_hole;
@@ -920,7 +937,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         }
         const auto t0 = Clock::now();
         topology = triangulate(method, mesh, hole, loop, options, region_index,
-                               creases ? &*creases : nullptr, avoid);
+                               creases ? &*creases : nullptr, dp_tables, avoid);
         attempt_phases.triangulate += std::chrono::duration<double>(Clock::now() - t0).count();
         if (!topology->ok) {
           failures.push_back(fmt::format("{}: {}", to_string(method), topology->failure));
