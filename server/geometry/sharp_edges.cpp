@@ -24,9 +24,16 @@ double dihedral_deg(const Mesh& mesh, HalfedgeHandle h) {
   return std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) / kDeg;
 }
 
+//! Whether the dihedral angle at \p h's edge exceeds the threshold, compared as cosines (the
+//! crease tracing asks this of every edge around each vertex it visits; no trigonometry). A
+//! degenerate face has no normal and makes no crease.
 bool is_sharp(const Mesh& mesh, HalfedgeHandle h, double threshold_deg) {
   if (mesh.is_boundary(mesh.edge_handle(h))) return false;
-  return dihedral_deg(mesh, h) > threshold_deg;
+  if (threshold_deg >= 180.0) return false;
+  const Vec3 a = mesh.calc_face_normal(mesh.face_handle(h));
+  const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
+  if (a.sqrnorm() == 0 || b.sqrnorm() == 0) return false;
+  return OpenMesh::dot(a, b) < std::cos(threshold_deg * kDeg);
 }
 
 double angle_between(const Vec3& a, const Vec3& b) {
