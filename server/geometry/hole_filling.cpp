@@ -678,6 +678,10 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
       vertices.insert(vertices.end(), list.begin(), list.end());
     for (auto& list : piece_vertices) list.clear();
   };
+  // The quality pass may collapse vertices: the deleted ones leave every list.
+  const auto drop_collapsed = [&] {
+    std::erase_if(vertices, [&](VertexHandle v) { return mesh.status(v).deleted(); });
+  };
   const auto mend = [&](bool keep_surface) {
     if (!options.improve_quality) return;
     PatchQualityOptions quality = options.quality;
@@ -696,6 +700,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
       improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], quality);
       report.phases.mend += std::chrono::duration<double>(Clock::now() - t0).count();
     }
+    drop_collapsed();
   };
   report.shape = PatchShape::Flat;
   if (!fair) {
@@ -785,11 +790,17 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     settle.max_rounds = 2;
     settle.max_turn_deg = 30.0;
     settle.apex_moves = true;
+    // What flips and moves leave below the goal here is a vertex fairing pulled against a
+    // fixed edge: collapse it. Only now, on the final surface: collapses before the second
+    // fairing coarsen the patch where fairing then places the rest (measured: three holes
+    // farther from the ground truth, the 736-vertex hole's smallest angle 16.7 -> 14.4 deg).
+    settle.collapse = true;
     for (std::size_t p = 0; p < pieces; ++p) {
       const auto t0 = Clock::now();
       improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], settle);
       report.phases.mend += std::chrono::duration<double>(Clock::now() - t0).count();
     }
+    drop_collapsed();
     gather();
   }
   report.shape = PatchShape::Fair;

@@ -103,7 +103,8 @@ class Patch {
     LocalSet seen(2 * (previous.size() + touched_.size()) + 16);
     for (const std::vector<FaceHandle>* list : {&previous, &std::as_const(touched_)})
       for (const FaceHandle f : *list)
-        if (seen.insert(f.idx()) && face_shape(mesh_, f) < goal_) candidates.push_back(f);
+        if (!mesh_.status(f).deleted() && seen.insert(f.idx()) && face_shape(mesh_, f) < goal_)
+          candidates.push_back(f);
     touched_.clear();
     std::sort(candidates.begin(), candidates.end(), [&](FaceHandle a, FaceHandle b) {
       return *position_.find(a.idx()) < *position_.find(b.idx());
@@ -153,6 +154,37 @@ class Patch {
     std::size_t moves = 0;
     for (const VertexHandle v : candidates) moves += try_move(v) ? 1 : 0;
     return moves;
+  }
+
+  //! Collapses a free vertex of each triangle still below the goal into one of that triangle's
+  //! other corners, where flips and moves could not mend it: fairing can pull a vertex next to
+  //! a fixed edge of the patch, and then every position in its tangent plane leaves an obtuse
+  //! cap (the smallest angles of the couplingdown caps). The collapse is taken when the
+  //! smallest angle of the triangles it reshapes grows and none of them turns further than a
+  //! move may (a flat patch: stays in its plane); the vertex count drops by one.
+  std::size_t collapse_pass(const std::vector<FaceHandle>& bad) {
+    std::size_t collapses = 0;
+    for (const FaceHandle f : bad) {
+      if (mesh_.status(f).deleted() || face_shape(mesh_, f) >= goal_) continue;
+      HalfedgeHandle best;
+      double best_shape = -1;
+      for (const HalfedgeHandle h : mesh_.fh_range(f))
+        for (const HalfedgeHandle g : {h, mesh_.opposite_halfedge_handle(h)}) {
+          const double after = collapse_shape(g);  // g: from-vertex into to-vertex
+          if (after > best_shape) {
+            best_shape = after;
+            best = g;
+          }
+        }
+      if (!best.is_valid() || best_shape < 0) continue;
+      const VertexHandle kept = mesh_.to_vertex_handle(best);
+      mesh_.collapse(best);
+      ++collapses;
+      for (const FaceHandle g : mesh_.vf_range(kept))
+        if (set_.contains(g)) touched_.push_back(g);  // kept may be on the patch's rim
+    }
+    if (collapses > 0) drop_deleted();
+    return collapses;
   }
 
   //! Bisects the longest edge of every triangle still below the goal, where that edge is
@@ -227,6 +259,47 @@ class Patch {
   double goal() const { return goal_; }
 
  private:
+  //! The smallest angle (as triangle_shape) of the triangles around the from-vertex of \p h
+  //! once it is collapsed into the to-vertex, or -1 when that collapse is not allowed (the
+  //! vertex is not free, the topology forbids it, a triangle would turn too far or degenerate)
+  //! or does not improve on the smallest angle around the vertex now.
+  double collapse_shape(HalfedgeHandle h) {
+    const VertexHandle v = mesh_.from_vertex_handle(h), w = mesh_.to_vertex_handle(h);
+    Vec3 normal;
+    if (mesh_.is_boundary(h) || mesh_.is_boundary(mesh_.opposite_halfedge_handle(h)) ||
+        !free(v, normal) || !mesh_.is_collapse_ok(h))
+      return -1;
+    const Vec3 target = mesh_.point(w);
+    const Vec3 p = mesh_.point(v);
+    double before = 1.0, after = 1.0;
+    for (const HalfedgeHandle out : mesh_.voh_range(v)) {
+      const VertexHandle b = mesh_.to_vertex_handle(out);
+      const VertexHandle c = mesh_.to_vertex_handle(mesh_.next_halfedge_handle(out));
+      const Vec3& pb = mesh_.point(b);
+      const Vec3& pc = mesh_.point(c);
+      before = std::min(before, triangle_shape(p, pb, pc));
+      if (b == w || c == w) continue;  // one of the two faces the collapse removes
+      const Vec3 old_normal = OpenMesh::cross(pb - p, pc - p);
+      const Vec3 new_normal = OpenMesh::cross(pb - target, pc - target);
+      const double old_length = old_normal.norm(), new_length = new_normal.norm();
+      if (!(old_length > 0) || !(new_length > 0) ||
+          OpenMesh::dot(old_normal, new_normal) < turn_cos_ * old_length * new_length)
+        return -1;
+      after = std::min(after, triangle_shape(target, pb, pc));
+    }
+    return after > before + 1e-9 ? after : -1;
+  }
+
+  //! After collapses: the patch's lists hold only live faces and vertices.
+  void drop_deleted() {
+    std::erase_if(faces_, [&](FaceHandle f) { return mesh_.status(f).deleted(); });
+    std::erase_if(new_vertices_, [&](VertexHandle v) { return mesh_.status(v).deleted(); });
+    std::erase_if(touched_, [&](FaceHandle f) { return mesh_.status(f).deleted(); });
+    position_ = LocalMap<std::uint32_t>(2 * faces_.size() + 16);
+    for (std::size_t i = 0; i < faces_.size(); ++i)
+      position_[faces_[i].idx()] = static_cast<std::uint32_t>(i);
+  }
+
   bool try_flip(EdgeHandle e) {
     if (!interior(e) || !mesh_.is_flip_ok(e)) return false;
     const HalfedgeHandle h0 = mesh_.halfedge_handle(e, 0), h1 = mesh_.halfedge_handle(e, 1);
@@ -392,6 +465,12 @@ PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& pa
     report.moves += patch.smooth_pass(bad);
     bad = patch.bad_faces_after(bad);
     if (bad.empty()) break;
+    if (options.collapse) {
+      const std::size_t collapses = patch.collapse_pass(bad);
+      report.collapses += collapses;
+      bad = patch.bad_faces_after(bad);
+      if (bad.empty()) break;
+    }
     const std::size_t splits = options.bisect ? patch.split_pass(bad) : 0;
     bad = patch.bad_faces_after(bad);
     report.splits += splits;

@@ -14,7 +14,10 @@
 //!    triangle worse);
 //!  - longest-edge bisection (Rivara) of the triangles still bad, when that edge is interior:
 //!    the midpoint of a fold between two planes lies on both, so even a flat patch keeps its
-//!    surface exactly.
+//!    surface exactly;
+//!  - optionally, collapse of a free vertex of a triangle still bad into another corner of it,
+//!    when that raises the smallest angle around it (a vertex fairing pulled against a fixed
+//!    edge: every position in its tangent plane leaves an obtuse cap, and flips are limited).
 //! Nothing outside the patch changes; vertices on the patch's boundary never move.
 
 #include <cstddef>
@@ -44,7 +47,11 @@ struct PatchQualityOptions {
   //! Bisection is for needles; a cap (one angle above this) is mended by flipping its long
   //! edge instead, since bisecting it puts the new vertex next to the obtuse one.
   double max_bisected_angle_deg = 120.0;
-  bool bisect = true;  //!< false: flips and moves only (the vertex count stays)
+  bool bisect = true;  //!< false: no bisections (the vertex count does not grow)
+  //! Collapse a free vertex of a triangle that flips and moves left below the goal into
+  //! another corner of it (removes a vertex fairing pulled next to a fixed edge). Coarsens the
+  //! patch, so off unless asked for (the fill asks for it on the final faired surface).
+  bool collapse = false;
   //! Also try moving a vertex towards the apex that makes its worst triangle equilateral
   //! (mends a vertex pulled next to a fixed edge; larger moves than Laplacian smoothing).
   bool apex_moves = false;
@@ -58,13 +65,15 @@ struct PatchQualityReport {
   std::size_t flips = 0;
   std::size_t moves = 0;
   std::size_t splits = 0;
+  std::size_t collapses = 0;
   double min_angle_before_deg = 180;
   double min_angle_after_deg = 180;
 };
 
 //! Improves the triangles of \p patch_faces in place. Faces and vertices the bisections create
-//! are appended to \p patch_faces and \p new_vertices. A vertex is free (may move) when every
-//! face around it is in the patch and, with keep_surface, they are coplanar.
+//! are appended to \p patch_faces and \p new_vertices; those collapses delete are removed from
+//! both (the mesh keeps them as deleted elements until its garbage collection). A vertex is free
+//! (may move) when every face around it is in the patch and, with keep_surface, they are coplanar.
 PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
                                          std::vector<VertexHandle>& new_vertices,
                                          const PatchQualityOptions& options = {});

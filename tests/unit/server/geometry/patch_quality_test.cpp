@@ -99,5 +99,60 @@ TEST(PatchQuality, CurvedPatchKeepsItsTurnLimit) {
   EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
 }
 
+//! A sliver hole (l0, l2, l1) — angles 8.5°, 8.5°, 163° — between two faces above and one
+//! below, closed by three triangles around its centroid x, which are worse still (2.9°). Every
+//! flip at x would recreate a rim edge and every position inside the sliver is worse than the
+//! sliver itself: only collapsing x mends it.
+struct CrowdedRim {
+  Mesh mesh;
+  std::vector<FaceHandle> patch;
+  std::vector<VertexHandle> added;
+  VertexHandle x;
+};
+
+CrowdedRim crowded_rim() {
+  MeshSoup soup;
+  soup.points = {{0, 0, 0}, {1, 0.15, 0}, {2, 0, 0}, {1, 1, 0}, {1, -1, 0}};  // l0 l1 l2 t b
+  soup.triangles = {{0, 1, 3}, {1, 2, 3}, {0, 4, 2}};
+  CrowdedRim out{build_mesh(soup).mesh, {}, {}, VertexHandle()};
+  const VertexHandle l0(0), l1(1), l2(2);
+  out.x = out.mesh.add_vertex(Vec3(1, 0.05, 0));
+  out.added = {out.x};
+  for (const auto& [a, b] : {std::pair{l0, l2}, std::pair{l2, l1}, std::pair{l1, l0}})
+    out.patch.push_back(out.mesh.add_face(a, b, out.x));
+  return out;
+}
+
+TEST(PatchQuality, CollapseMendsAVertexCrowdedAgainstTheRim) {
+  PatchQualityOptions options;
+  options.keep_surface = true;
+  options.bisect = false;
+  CrowdedRim without = crowded_rim();
+  ASSERT_EQ(without.patch.size(), 3u);
+  for (const FaceHandle f : without.patch) ASSERT_TRUE(f.is_valid());
+  const PatchQualityReport plain =
+      improve_patch_quality(without.mesh, without.patch, without.added, options);
+  EXPECT_EQ(plain.collapses, 0u);
+
+  options.collapse = true;
+  CrowdedRim with = crowded_rim();
+  const PatchQualityReport mended =
+      improve_patch_quality(with.mesh, with.patch, with.added, options);
+  EXPECT_GE(mended.collapses, 1u);
+  EXPECT_LT(plain.min_angle_after_deg, 4.0);
+  EXPECT_GT(mended.min_angle_after_deg, 8.0);  // the sliver's own 8.5°
+  EXPECT_TRUE(with.mesh.status(with.x).deleted());
+  // The lists hold only live elements, and the patch is still a flat disk closing the hole.
+  for (const FaceHandle f : with.patch) {
+    EXPECT_FALSE(with.mesh.status(f).deleted());
+    for (const VertexHandle v : with.mesh.fv_range(f)) EXPECT_EQ(with.mesh.point(v)[2], 0.0);
+  }
+  for (const VertexHandle v : with.added) EXPECT_FALSE(with.mesh.status(v).deleted());
+  EXPECT_EQ(with.patch.size() + 2 * mended.collapses, 3u);
+  with.mesh.garbage_collection();
+  EXPECT_TRUE(validate_mesh(with.mesh).is_clean());
+  EXPECT_EQ(find_holes(with.mesh).holes.size(), 1u);  // only the outer border
+}
+
 }  // namespace
 }  // namespace touchmend::geometry
