@@ -97,11 +97,7 @@ void for_each_face_crossed(const Mesh& mesh, const FaceIndex& index, const Trian
     if (!more) return;
     TrianglePoints other;
     std::array<int, 3> other_ids;
-    int k = 0;
-    for (const VertexHandle v : mesh.fv_range(f)) {
-      other[static_cast<std::size_t>(k)] = mesh.point(v);
-      other_ids[static_cast<std::size_t>(k++)] = v.idx();
-    }
+    face_corners(mesh, f, other, other_ids);
     if (triangles_intersect(points, ids, other, other_ids)) more = on_crossing(other, other_ids);
   });
 }
@@ -119,53 +115,73 @@ void loop_triangle(const Hole& hole, const LoopData& loop, const std::array<int,
 //! Indices (into \p triangles, a solution of the 3D triangulation over the loop) of the
 //! triangles that intersect a face of the mesh or each other. \p crosses_mesh keeps each
 //! triangle's verdict against the mesh (by forbidden_key) over the avoiding rounds, so a round
-//! tests only the triangles it has not seen, each through the index of the faces near the
-//! hole; the triangles are always tested against each other. The chords found to pass
-//! through a mesh face themselves are added to \p crossing_chords.
-std::vector<std::size_t> triangles_crossing(const Mesh& mesh, const Hole& hole,
-                                            const LoopData& loop, const FaceIndex& index,
-                                            const std::vector<std::array<int, 3>>& triangles,
-                                            std::unordered_map<std::uint64_t, bool>& crosses_mesh,
-                                            std::vector<std::pair<int, int>>& crossing_chords) {
+//! tests only the triangles it has not seen; the triangles are always tested against each
+//! other. The chords found to pass through a mesh face themselves are added to
+//! \p crossing_chords. The first round (\p first_round) tests its triangles with one scan of
+//! the points near them; later rounds, and the chords of crossing triangles, go through the
+//! index of the faces near the hole, built only then (a clean first solution, the common case,
+//! never pays for it: 1 ms on a fandisk hole).
+std::vector<std::size_t> triangles_crossing(
+    const Mesh& mesh, const Hole& hole, const LoopData& loop, const SearchReach& reach,
+    const std::function<const FaceIndex&()>& index_near_hole, bool first_round,
+    const std::vector<std::array<int, 3>>& triangles,
+    std::unordered_map<std::uint64_t, bool>& crosses_mesh,
+    std::vector<std::pair<int, int>>& crossing_chords) {
   const int n = static_cast<int>(loop.points.size());
   std::vector<TrianglePoints> points(triangles.size());
   std::vector<std::array<int, 3>> ids(triangles.size());
-  std::vector<char> bad(triangles.size(), 0);
+  std::vector<bool*> verdicts(triangles.size());
+  std::vector<std::size_t> unseen;
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     loop_triangle(hole, loop, triangles[t], points[t], ids[t]);
     std::array<int, 3> sorted = triangles[t];
     std::sort(sorted.begin(), sorted.end());
-    const auto [verdict, unseen] =
+    const auto [verdict, inserted] =
         crosses_mesh.try_emplace(forbidden_key(sorted[0], sorted[1], sorted[2], n), false);
-    if (unseen) {
-      // A chord (an edge that is not a boundary edge) that itself passes through a mesh face
-      // makes every triangle on it cross the mesh: it is forbidden as a whole, which ends in
-      // one round what forbidding its triangles one by one takes many for.
-      std::array<bool, 3> chord_crosses{false, false, false};
-      for_each_face_crossed(
-          mesh, index, points[t], ids[t],
-          [&](const TrianglePoints& other, const std::array<int, 3>& other_ids) {
-            verdict->second = true;
-            for (std::size_t e = 0; e < 3; ++e) {
-              const int a = triangles[t][e], b = triangles[t][(e + 1) % 3];
-              if (chord_crosses[e] || std::abs(a - b) == 1 || std::abs(a - b) == n - 1) continue;
-              // A face at one of the chord's ends touches it there: only faces apart from both
-              // ends are a proof.
-              const int va = ids[t][e], vb = ids[t][(e + 1) % 3];
-              if (std::find(other_ids.begin(), other_ids.end(), va) != other_ids.end() ||
-                  std::find(other_ids.begin(), other_ids.end(), vb) != other_ids.end())
-                continue;
-              chord_crosses[e] =
-                  segment_intersects_triangle(points[t][e], points[t][(e + 1) % 3], other);
-            }
-            return true;
-          });
-      for (std::size_t e = 0; e < 3; ++e)
-        if (chord_crosses[e])
-          crossing_chords.emplace_back(triangles[t][e], triangles[t][(e + 1) % 3]);
-    }
-    bad[t] = verdict->second ? 1 : 0;
+    verdicts[t] = &verdict->second;  // element references survive rehashing
+    if (inserted) unseen.push_back(t);
   }
+  // A chord (an edge that is not a boundary edge) that itself passes through a mesh face
+  // makes every triangle on it cross the mesh: it is forbidden as a whole, which ends in one
+  // round what forbidding its triangles one by one takes many for.
+  const auto test_through_index = [&](std::size_t t) {
+    std::array<bool, 3> chord_crosses{false, false, false};
+    for_each_face_crossed(
+        mesh, index_near_hole(), points[t], ids[t],
+        [&](const TrianglePoints& other, const std::array<int, 3>& other_ids) {
+          *verdicts[t] = true;
+          for (std::size_t e = 0; e < 3; ++e) {
+            const int a = triangles[t][e], b = triangles[t][(e + 1) % 3];
+            if (chord_crosses[e] || std::abs(a - b) == 1 || std::abs(a - b) == n - 1) continue;
+            // A face at one of the chord's ends touches it there: only faces apart from both
+            // ends are a proof.
+            const int va = ids[t][e], vb = ids[t][(e + 1) % 3];
+            if (std::find(other_ids.begin(), other_ids.end(), va) != other_ids.end() ||
+                std::find(other_ids.begin(), other_ids.end(), vb) != other_ids.end())
+              continue;
+            chord_crosses[e] =
+                segment_intersects_triangle(points[t][e], points[t][(e + 1) % 3], other);
+          }
+          return true;
+        });
+    for (std::size_t e = 0; e < 3; ++e)
+      if (chord_crosses[e])
+        crossing_chords.emplace_back(triangles[t][e], triangles[t][(e + 1) % 3]);
+  };
+  if (first_round) {
+    std::vector<TrianglePoints> unseen_points;
+    std::vector<std::array<int, 3>> unseen_ids;
+    for (const std::size_t t : unseen) {
+      unseen_points.push_back(points[t]);
+      unseen_ids.push_back(ids[t]);
+    }
+    for (const std::size_t u : triangles_crossing_mesh(mesh, unseen_points, unseen_ids, reach))
+      test_through_index(unseen[u]);  // crosses: find its chords that do
+  } else {
+    for (const std::size_t t : unseen) test_through_index(t);
+  }
+  std::vector<char> bad(triangles.size(), 0);
+  for (std::size_t t = 0; t < triangles.size(); ++t) bad[t] = *verdicts[t] ? 1 : 0;
   for (std::size_t t = 0; t < triangles.size(); ++t)
     for (std::size_t u = t + 1; u < triangles.size(); ++u)
       if (triangle_box(points[t]).intersects(triangle_box(points[u])) &&
@@ -192,8 +208,8 @@ struct SharedDpTables {
 TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
                           const LoopData& loop, const FillOptions& options,
                           const std::function<const FaceIndex&()>& index_near_hole,
-                          const HoleCreasePlan* creases, SharedDpTables& dp_tables,
-                          bool avoid_intersections = false) {
+                          const SearchReach& reach, const HoleCreasePlan* creases,
+                          SharedDpTables& dp_tables, bool avoid_intersections = false) {
   TopologyPatch out;
   if (method == FillMethod::CreaseSplit) {
     if (creases == nullptr || creases->curves.empty()) {
@@ -286,8 +302,9 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
       out.failure = t.failure;
       out.triangles = std::move(t.triangles);
       if (!out.ok || !avoid_intersections) return out;
-      const std::vector<std::size_t> bad = triangles_crossing(
-          mesh, hole, loop, index_near_hole(), out.triangles, crosses_mesh, crossing_chords);
+      const std::vector<std::size_t> bad =
+          triangles_crossing(mesh, hole, loop, reach, index_near_hole, round == 0, out.triangles,
+                             crosses_mesh, crossing_chords);
       if (bad.empty()) return out;
       if (round + 1 >= rounds) {
         out.ok = false;
@@ -314,11 +331,7 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
   for (const FaceHandle f : region_faces) {
     TrianglePoints t;
     std::array<int, 3> ids;
-    int k = 0;
-    for (const VertexHandle v : mesh.fv_range(f)) {
-      t[static_cast<std::size_t>(k)] = mesh.point(v);
-      ids[static_cast<std::size_t>(k++)] = v.idx();
-    }
+    face_corners(mesh, f, t, ids);
     near_faces.push_back(t);
     near_ids.push_back(ids);
   }
@@ -947,7 +960,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
           continue;
         }
         const auto t0 = Clock::now();
-        topology = triangulate(method, mesh, hole, loop, options, region_index,
+        topology = triangulate(method, mesh, hole, loop, options, region_index, reach,
                                creases ? &*creases : nullptr, dp_tables, avoid);
         attempt_phases.triangulate += std::chrono::duration<double>(Clock::now() - t0).count();
         if (!topology->ok) {

@@ -12,15 +12,6 @@
 namespace touchmend::geometry {
 namespace {
 
-void face_data(const Mesh& mesh, FaceHandle f, TrianglePoints& t, std::array<int, 3>& ids) {
-  int k = 0;
-  for (const VertexHandle v : mesh.fv_range(f)) {
-    t[static_cast<std::size_t>(k)] = mesh.point(v);
-    ids[static_cast<std::size_t>(k)] = v.idx();
-    ++k;
-  }
-}
-
 //! The face of outgoing halfedge \p h (corners from(h), to(h), to(next(h)), in the face's
 //! order) into \p t and \p ids, if from(h) is its corner of lowest index inside \p box: the
 //! vertex scans meet every face once per corner inside the box and handle it at that one only,
@@ -71,7 +62,7 @@ void for_each_face_near(const Mesh& mesh, const Box3& box, const SearchReach& re
       continue;
     TrianglePoints t;
     std::array<int, 3> ids;
-    face_data(mesh, g, t, ids);
+    face_corners(mesh, g, t, ids);
     if (!visit(g, t, ids)) return;
   }
 }
@@ -127,7 +118,7 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh
   Box3 region;
   for (std::size_t i = 0; i < faces.size(); ++i) {
     chosen.insert(faces[i].idx());
-    face_data(mesh, faces[i], triangles[i], ids[i]);
+    face_corners(mesh, faces[i], triangles[i], ids[i]);
     region.extend(triangle_box(triangles[i]));
   }
   const double pad = 1e-9 * std::max(region.diagonal().norm(), 1e-300);

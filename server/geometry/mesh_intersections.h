@@ -17,6 +17,17 @@
 
 namespace touchmend::geometry {
 
+//! The corner points of face \p f and their vertex indices (the ids triangles_intersect
+//! compares), in the face's order.
+inline void face_corners(const Mesh& mesh, FaceHandle f, TrianglePoints& points,
+                         std::array<int, 3>& ids) {
+  std::size_t k = 0;
+  for (const VertexHandle v : mesh.fv_range(f)) {
+    points[k] = mesh.point(v);
+    ids[k++] = v.idx();
+  }
+}
+
 //! Length of the longest edge (the search radius that makes faces_in_box exact).
 double max_edge_length(const Mesh& mesh);
 
