@@ -5,7 +5,6 @@
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
-#include <unordered_set>
 
 #include <fmt/format.h>
 
@@ -182,9 +181,11 @@ std::vector<std::size_t> triangles_crossing(
   }
   std::vector<char> bad(triangles.size(), 0);
   for (std::size_t t = 0; t < triangles.size(); ++t) bad[t] = *verdicts[t] ? 1 : 0;
+  std::vector<Box3> boxes(triangles.size());
+  for (std::size_t t = 0; t < triangles.size(); ++t) boxes[t] = triangle_box(points[t]);
   for (std::size_t t = 0; t < triangles.size(); ++t)
     for (std::size_t u = t + 1; u < triangles.size(); ++u)
-      if (triangle_box(points[t]).intersects(triangle_box(points[u])) &&
+      if (boxes[t].intersects(boxes[u]) &&
           triangles_intersect(points[t], ids[t], points[u], ids[u]))
         bad[t] = bad[u] = 1;
   std::vector<std::size_t> out;

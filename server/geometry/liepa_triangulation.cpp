@@ -98,12 +98,17 @@ bool MinDihedralTriangulator::is_forbidden(int i, int m, int k) const {
          (external_forbidden_ != nullptr && external_forbidden_->count(key) != 0);
 }
 
+void MinDihedralTriangulator::mark_dirty(int first, int last) {
+  // dirty_from_ is a suffix minimum: stop where an earlier mark already reaches as far.
+  for (int i = first; i >= 0 && dirty_from_[static_cast<std::size_t>(i)] > last; --i)
+    dirty_from_[static_cast<std::size_t>(i)] = last;
+}
+
 void MinDihedralTriangulator::forbid(std::array<int, 3> corners) {
   std::sort(corners.begin(), corners.end());
   if (!failure_.empty() || corners[0] < 0 || corners[2] >= n_) return;
   if (!forbidden_.insert(forbidden_key(corners[0], corners[1], corners[2], n_)).second) return;
-  for (int i = corners[0]; i >= 0 && dirty_from_[static_cast<std::size_t>(i)] > corners[2]; --i)
-    dirty_from_[static_cast<std::size_t>(i)] = corners[2];
+  mark_dirty(corners[0], corners[2]);
 }
 
 void MinDihedralTriangulator::forbid_chord(int a, int b) {
@@ -113,8 +118,7 @@ void MinDihedralTriangulator::forbid_chord(int a, int b) {
   // Every triangle with edge (a, b) is built by interval (a, b) (as its base) or by an
   // interval that has (a, b) as a sub-interval: blocking the interval removes them all.
   blocked_[at(a, b)] = 1;
-  for (int i = a; i >= 0 && dirty_from_[static_cast<std::size_t>(i)] > b; --i)
-    dirty_from_[static_cast<std::size_t>(i)] = b;
+  mark_dirty(a, b);
 }
 
 LiepaTriangulation MinDihedralTriangulator::solve() {

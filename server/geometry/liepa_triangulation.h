@@ -81,6 +81,8 @@ class MinDihedralTriangulator {
     return static_cast<std::size_t>(i) * static_cast<std::size_t>(n_) + static_cast<std::size_t>(k);
   }
   bool is_forbidden(int i, int m, int k) const;
+  //! Every interval (i, k) with i <= first and k >= last must be solved again.
+  void mark_dirty(int first, int last);
 
   int n_ = 0;
   std::string failure_;

@@ -10,16 +10,19 @@
 namespace touchmend::geometry {
 namespace {
 
-TEST(MinimumDihedralTriangulation, PlanarLoopGivesFlatTriangulation) {
-  std::vector<Vec3> loop, opposite;
-  const int n = 12;
+//! A planar regular n-gon in z = 0, its neighbours coplanar outside it (opposite corners at
+//! 1.5x the edge midpoints).
+void planar_loop(int n, std::vector<Vec3>& loop, std::vector<Vec3>& opposite) {
   for (int i = 0; i < n; ++i)
     loop.emplace_back(std::cos(2 * std::numbers::pi * i / n),
                       std::sin(2 * std::numbers::pi * i / n), 0);
-  for (int i = 0; i < n; ++i) {
-    const Vec3 mid = 0.5 * (loop[i] + loop[(i + 1) % n]);
-    opposite.push_back(mid * 1.5);  // coplanar neighbours outside the loop
-  }
+  for (int i = 0; i < n; ++i) opposite.push_back(0.5 * (loop[i] + loop[(i + 1) % n]) * 1.5);
+}
+
+TEST(MinimumDihedralTriangulation, PlanarLoopGivesFlatTriangulation) {
+  std::vector<Vec3> loop, opposite;
+  const int n = 12;
+  planar_loop(n, loop, opposite);
   const auto t = triangulate_min_dihedral(loop, opposite, {});
   ASSERT_TRUE(t.ok) << t.failure;
   EXPECT_EQ(t.triangles.size(), static_cast<std::size_t>(n - 2));
@@ -81,10 +84,7 @@ TEST(MinimumDihedralTriangulation, ForbiddenTrianglesAreNeverUsed) {
   // solution is a different full triangulation that uses none of them.
   std::vector<Vec3> loop, opposite;
   const int n = 10;
-  for (int i = 0; i < n; ++i)
-    loop.emplace_back(std::cos(2 * std::numbers::pi * i / n),
-                      std::sin(2 * std::numbers::pi * i / n), 0);
-  for (int i = 0; i < n; ++i) opposite.push_back(0.5 * (loop[i] + loop[(i + 1) % n]) * 1.5);
+  planar_loop(n, loop, opposite);
   const auto first = triangulate_min_dihedral(loop, opposite, {});
   ASSERT_TRUE(first.ok) << first.failure;
   std::unordered_set<std::uint64_t> forbidden;
