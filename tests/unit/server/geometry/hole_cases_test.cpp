@@ -194,5 +194,44 @@ TEST(HoleCasesShape, CoarseCurvedSurfaceIsFairedAndBalloonsStayFlat) {
   EXPECT_LT(auto2_score.mean_permille, 0.75 * fair2_score.mean_permille);
 }
 
+// rocker-arm_xl's 264-vertex hole on a curved part: the first faired patch crosses the
+// surrounding surface. Faired again with the crowded vertices collapsed before fairing, it no
+// longer does, and the faired fill is closer to the ground truth than every anchor (all of
+// which are either flat or intersect the mesh); a flat fill is farther.
+TEST(HoleCasesShape, FairedPatchThatCrossesTheMeshIsFairedAgainWithCollapses) {
+  std::string error;
+  const auto c = testing::load_case("rocker-arm_xl", error);
+  ASSERT_TRUE(c) << error;
+  ASSERT_EQ(c->holes.size(), 1u);
+  const auto baseline = testing::read_baseline();
+  const auto anchor = baseline.find({c->name, "0"});
+  ASSERT_NE(anchor, baseline.end());
+  const auto fill = [&](const FillOptions& options) {
+    Mesh mesh = build_mesh(c->holed).mesh;
+    const auto holes = find_holes(mesh).holes;
+    const testing::Snapshot before = testing::take_snapshot(mesh);
+    const FillReport report = fill_holes(mesh, {}, options);
+    EXPECT_EQ(report.holes.size(), 1u);
+    const HoleFillReport& r = report.holes.at(0);
+    EXPECT_TRUE(r.filled) << r.reason;
+    const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
+    EXPECT_TRUE(problems.empty()) << problems;
+    return std::pair{r, testing::score_fill(mesh, r, *c, c->holes.at(0))};
+  };
+  const auto [faired, faired_score] = fill({});
+  EXPECT_EQ(faired.shape, PatchShape::Fair) << faired.shape_reason;
+  bool retried = false;
+  for (const auto& w : faired.warnings)
+    retried =
+        retried || w.find("faired again with the crowded vertices collapsed") != std::string::npos;
+  EXPECT_TRUE(retried);
+  EXPECT_LT(faired_score.mean_permille, anchor->second.best_mean);
+  FillOptions flat;
+  flat.shape = PatchShape::Flat;
+  const auto [kept_flat, flat_score] = fill(flat);
+  EXPECT_EQ(kept_flat.shape, PatchShape::Flat);
+  EXPECT_LT(faired_score.mean_permille, flat_score.mean_permille);
+}
+
 }  // namespace
 }  // namespace touchmend::geometry
