@@ -25,6 +25,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
 //! What the triangulators need to know about a hole loop.
 struct LoopData {
   std::vector<Vec3> points;
@@ -554,8 +558,7 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
         threshold_deg >= 180.0 ? -2.0 : std::cos(threshold_deg * std::numbers::pi / 180.0);
     for (const double c : dihedral_cosines) sharp_edges += c < threshold_cos ? 1 : 0;
   }
-  const double max_dev = std::acos(min_cos);
-  const double max_dev_deg = max_dev * 180.0 / std::numbers::pi;
+  const double max_dev_deg = degrees_of_cos(min_cos);
   const double size = std::max(hole.perimeter / std::numbers::pi, 1e-300);
   const double planarity = hole.planarity / size;
   if (max_dev_deg <= options.flat_max_normal_deviation_deg && planarity <= 0.01) {
@@ -678,7 +681,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     for (std::size_t p = 0; p < pieces; ++p) {
       const auto t0 = Clock::now();
       const RefinementReport rr = refine_patch(mesh, piece_faces[p], piece_vertices[p], ro);
-      report.phases.refine += std::chrono::duration<double>(Clock::now() - t0).count();
+      report.phases.refine += seconds_since(t0);
       report.refinement_rounds =
           std::max(report.refinement_rounds, static_cast<std::size_t>(rr.rounds));
       report.splits += rr.splits;
@@ -714,7 +717,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     for (std::size_t p = 0; p < pieces; ++p) {
       const auto t0 = Clock::now();
       improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], quality);
-      report.phases.mend += std::chrono::duration<double>(Clock::now() - t0).count();
+      report.phases.mend += seconds_since(t0);
     }
     drop_collapsed();
   };
@@ -763,7 +766,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
         };
       const auto t0 = Clock::now();
       const FairingReport fr = fair_vertices(mesh, free, fo);
-      report.phases.fair += std::chrono::duration<double>(Clock::now() - t0).count();
+      report.phases.fair += seconds_since(t0);
       if (!fr.ok) return "fairing failed (" + fr.failure + ")";
     }
     return {};
@@ -814,7 +817,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     for (std::size_t p = 0; p < pieces; ++p) {
       const auto t0 = Clock::now();
       improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], settle);
-      report.phases.mend += std::chrono::duration<double>(Clock::now() - t0).count();
+      report.phases.mend += seconds_since(t0);
     }
     drop_collapsed();
     gather();
@@ -845,7 +848,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   report.boundary_vertices = hole.loop.size();
   report.reference_plane = hole.reference_source;
   auto finish = [&]() -> HoleFillReport& {
-    report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    report.seconds = seconds_since(start);
     return report;
   };
   if (!hole.unfillable_reason.empty()) {
@@ -981,7 +984,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         const auto t0 = Clock::now();
         topology = triangulate(method, mesh, hole, loop, options, region_index, reach,
                                creases ? &*creases : nullptr, dp_tables, avoid);
-        attempt_phases.triangulate += std::chrono::duration<double>(Clock::now() - t0).count();
+        attempt_phases.triangulate += seconds_since(t0);
         if (!topology->ok) {
           failures.push_back(fmt::format("{}: {}", to_string(method), topology->failure));
           dead[m] = 1;
@@ -1018,7 +1021,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       };
       const auto check_start = Clock::now();
       const bool crosses = refused.empty() && options.check_intersections && patch_intersects();
-      attempt.phases.check += std::chrono::duration<double>(Clock::now() - check_start).count();
+      attempt.phases.check += seconds_since(check_start);
       attempt_phases = attempt.phases;
       if (crosses)
         refused = fair ? "the faired patch would intersect the mesh"
@@ -1142,7 +1145,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
         !spare(mesh.property(mesh.face_status_pph()).data_vector().capacity(), nf))
       mesh.reserve(nv + nv / 4 + 4096, ne + ne / 4 + 6144, nf + nf / 4 + 4096);
   }
-  report.prepare_seconds = std::chrono::duration<double>(Clock::now() - prepare_start).count();
+  report.prepare_seconds = seconds_since(prepare_start);
   for (std::size_t i = 0; i < selected.size(); ++i) {
     const Hole& hole = *selected[i];  // properties completed just before filling
     if (selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary) {
