@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
+#include <Eigen/Dense>
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
@@ -17,6 +19,130 @@ double cotangent(const Vec3& a, const Vec3& b, const Vec3& c) {  // angle at a
   const Vec3 u = b - a, w = c - a;
   const double s = OpenMesh::cross(u, w).norm();
   return s > 0 ? OpenMesh::dot(u, w) / s : 0.0;
+}
+
+//! The surface the surroundings of a patch suggest: a sphere, or a quadratic height field
+//! z = f(u, v) over the points' least-squares plane. The patch is faired as a deviation from it
+//! (fair_vertices), so surroundings that lie on it are continued exactly.
+struct BaseSurface {
+  enum class Kind { Sphere, Quadric } kind = Kind::Quadric;
+  Vec3 origin{0, 0, 0};  //!< sphere: centre; quadric: the points' centroid
+  double radius = 0;
+  Vec3 axis_u{1, 0, 0}, axis_v{0, 1, 0}, normal{0, 0, 1};  //!< quadric frame
+  double scale = 1;  //!< u, v are divided by it (a well-conditioned fit)
+  Eigen::Matrix<double, 6, 1> coefficients = Eigen::Matrix<double, 6, 1>::Zero();
+
+  static Eigen::Matrix<double, 6, 1> monomials(double u, double v) {
+    return {1, u, v, u * u, u * v, v * v};
+  }
+  //! Signed distance of \p p from the surface along the direction lifted() moves points.
+  double deviation(const Vec3& p) const {
+    const Vec3 d = p - origin;
+    if (kind == Kind::Sphere) return d.norm() - radius;
+    const double u = OpenMesh::dot(d, axis_u) / scale, v = OpenMesh::dot(d, axis_v) / scale;
+    return OpenMesh::dot(d, normal) - coefficients.dot(monomials(u, v));
+  }
+  //! \p p moved to deviation \p height: along the radius (sphere) or the normal (quadric).
+  Vec3 lifted(const Vec3& p, double height) const {
+    if (kind == Kind::Quadric) return p + (height - deviation(p)) * normal;
+    const Vec3 d = p - origin;
+    const double length = d.norm();
+    return length > 0 ? origin + d * ((radius + height) / length) : p;
+  }
+};
+
+double rms_deviation(const BaseSurface& base, const std::vector<Vec3>& points) {
+  double sum = 0;
+  for (const Vec3& p : points) sum += base.deviation(p) * base.deviation(p);
+  return std::sqrt(sum / static_cast<double>(points.size()));
+}
+
+//! Least-squares sphere through \p points (|p - c|^2 = r^2 is linear in c and r^2 - |c|^2),
+//! in coordinates centred on \p centroid and divided by \p scale.
+std::optional<BaseSurface> fit_sphere(const std::vector<Vec3>& points, const Vec3& centroid,
+                                      double scale) {
+  const Eigen::Index m = static_cast<Eigen::Index>(points.size());
+  Eigen::MatrixXd design(m, 4);
+  Eigen::VectorXd squares(m);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const Vec3 q = (points[static_cast<std::size_t>(r)] - centroid) / scale;
+    design.row(r) << 2 * q[0], 2 * q[1], 2 * q[2], 1;
+    squares[r] = q.sqrnorm();
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(design);
+  if (qr.rank() < 4) return std::nullopt;
+  const Eigen::Vector4d x = qr.solve(squares);
+  const double radius_squared = x[3] + x.head<3>().squaredNorm();
+  if (!x.allFinite() || !(radius_squared > 0)) return std::nullopt;
+  BaseSurface sphere;
+  sphere.kind = BaseSurface::Kind::Sphere;
+  sphere.origin = centroid + scale * Vec3(x[0], x[1], x[2]);
+  sphere.radius = scale * std::sqrt(radius_squared);
+  return sphere;
+}
+
+//! Least-squares quadratic height field over the plane of \p points' covariance.
+std::optional<BaseSurface> fit_quadric(const std::vector<Vec3>& points, const Vec3& centroid,
+                                       const Eigen::Matrix3d& axes, double scale) {
+  const auto column = [&](int c) { return Vec3(axes(0, c), axes(1, c), axes(2, c)); };
+  BaseSurface quadric;
+  quadric.origin = centroid;
+  quadric.normal = column(0);  // the eigenvalues ascend: the least spread is the normal
+  quadric.axis_u = column(2);
+  quadric.axis_v = OpenMesh::cross(quadric.normal, quadric.axis_u);
+  quadric.scale = scale;
+  const Eigen::Index m = static_cast<Eigen::Index>(points.size());
+  Eigen::MatrixXd design(m, 6);
+  Eigen::VectorXd heights(m);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const Vec3 d = points[static_cast<std::size_t>(r)] - centroid;
+    design.row(r) = BaseSurface::monomials(OpenMesh::dot(d, quadric.axis_u) / scale,
+                                           OpenMesh::dot(d, quadric.axis_v) / scale)
+                        .transpose();
+    heights[r] = OpenMesh::dot(d, quadric.normal);
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(design);
+  if (qr.rank() < 6) return std::nullopt;
+  quadric.coefficients = qr.solve(heights);
+  if (!quadric.coefficients.allFinite()) return std::nullopt;
+  return quadric;
+}
+
+//! The base surface of the fixed vertices in rings 1..\p rings around the free ones: whichever
+//! of the sphere and the quadric fits them better, if its RMS deviation is within \p tolerance
+//! times the points' spread; nothing otherwise (the surroundings are no such surface: plain
+//! fairing).
+std::optional<BaseSurface> fit_base_surface(const Mesh& mesh,
+                                            const std::vector<VertexHandle>& vertices,
+                                            const std::vector<int>& ring_of, int rings,
+                                            double tolerance) {
+  std::vector<Vec3> points;
+  for (std::size_t i = 0; i < vertices.size(); ++i)
+    if (ring_of[i] >= 1 && ring_of[i] <= rings) points.push_back(mesh.point(vertices[i]));
+  if (points.size() < 12) return std::nullopt;  // twice the quadric's unknowns
+  Vec3 centroid(0, 0, 0);
+  for (const Vec3& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const Vec3& p : points) {
+    const Eigen::Vector3d d(p[0] - centroid[0], p[1] - centroid[1], p[2] - centroid[2]);
+    covariance += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
+  if (eigen.info() != Eigen::Success) return std::nullopt;
+  const double spread =
+      std::sqrt(std::max(eigen.eigenvalues().sum(), 0.0) / static_cast<double>(points.size()));
+  if (!(spread > 0)) return std::nullopt;
+  const double limit = tolerance * spread;
+  std::optional<BaseSurface> sphere = fit_sphere(points, centroid, spread);
+  std::optional<BaseSurface> quadric = fit_quadric(points, centroid, eigen.eigenvectors(), spread);
+  const double sphere_rms = sphere ? rms_deviation(*sphere, points) : HUGE_VAL;
+  const double quadric_rms = quadric ? rms_deviation(*quadric, points) : HUGE_VAL;
+  // The sphere has 4 parameters, the quadric 6: the quadric must fit clearly better (points
+  // on two circles of a sphere also lie on a paraboloid, which departs from it in between).
+  if (sphere_rms <= limit && !(quadric_rms < 0.5 * sphere_rms - 1e-9 * spread)) return sphere;
+  if (quadric_rms <= limit) return quadric;
+  return std::nullopt;
 }
 
 }  // namespace
@@ -49,7 +175,8 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
     }
   }
   std::size_t ring_begin = 0;
-  for (int ring = 1; ring <= k; ++ring) {
+  const int fit_rings = std::max(options.base_fit_rings, 0);
+  for (int ring = 1; ring <= std::max(k, fit_rings); ++ring) {
     const std::size_t ring_end = vertices.size();
     for (std::size_t i = ring_begin; i < ring_end; ++i)
       for (const HalfedgeHandle h : mesh.voh_range(vertices[i])) {
@@ -62,8 +189,15 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
       }
     ring_begin = ring_end;
   }
-  const int n = static_cast<int>(vertices.size());
+  // The operator's stencil is the prefix of vertices within k rings; farther ones (gathered
+  // for the base surface fit only) are not in the system.
+  const int n = static_cast<int>(
+      std::count_if(ring_of.begin(), ring_of.end(), [k](int ring) { return ring <= k; }));
   const int n_free = static_cast<int>(free_vertices.size());
+  const std::optional<BaseSurface> base =
+      fit_rings > 0
+          ? fit_base_surface(mesh, vertices, ring_of, fit_rings, options.base_fit_tolerance)
+          : std::nullopt;
   // L(v_i) = (1/A_i) Σ_j w_ij (x_j - x_i): rows for vertices of ring < k.
   std::vector<Eigen::Triplet<double>> triplets;
   std::vector<double> inverse_mass(static_cast<std::size_t>(n), 1.0);
@@ -123,7 +257,14 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
   for (int i = n_free; i < n; ++i)
     for (int c = 0; c < 3; ++c)
       fixed(i - n_free, c) = mesh.point(vertices[static_cast<std::size_t>(i)])[c];
-  const Eigen::MatrixXd rhs = -(B * fixed);
+  // With a quadric base, a fourth column carries the fixed vertices' heights over the quadric:
+  // its solution is the faired deviation the free vertices get over the quadric.
+  Eigen::MatrixXd known(n - n_free, base ? 4 : 3);
+  known.leftCols(3) = fixed;
+  if (base)
+    for (int i = n_free; i < n; ++i)
+      known(i - n_free, 3) = base->deviation(mesh.point(vertices[static_cast<std::size_t>(i)]));
+  const Eigen::MatrixXd rhs = -(B * known);
   A.makeCompressed();
   Eigen::MatrixXd x;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> cholesky(A);
@@ -144,8 +285,12 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
       return report;
     }
   }
-  for (int i = 0; i < n_free; ++i)
-    mesh.set_point(vertices[static_cast<std::size_t>(i)], Vec3(x(i, 0), x(i, 1), x(i, 2)));
+  for (int i = 0; i < n_free; ++i) {
+    Vec3 p(x(i, 0), x(i, 1), x(i, 2));
+    if (base) p = base->lifted(p, x(i, 3));
+    mesh.set_point(vertices[static_cast<std::size_t>(i)], p);
+  }
+  if (base) report.base_surface = base->kind == BaseSurface::Kind::Sphere ? "sphere" : "quadric";
   report.ok = true;
   return report;
 }

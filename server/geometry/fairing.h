@@ -4,7 +4,8 @@
 //! \brief Fairing of a filled patch: solve L^k x = 0 for the patch's interior vertices with
 //! everything else fixed (Liepa 2003 as implemented by CGAL's fair_impl; ALGORITHMS.md §6.4).
 //! With k = 2 (bi-Laplacian, the default) the hole boundary and the ring of mesh vertices
-//! around it constrain the patch, so it meets its neighbours with matching tangents.
+//! around it constrain the patch, so it meets its neighbours with matching tangents. Where the
+//! surroundings are a sphere or a quadratic height field, the patch continues that surface.
 
 #include <functional>
 #include <span>
@@ -25,16 +26,32 @@ struct FairingOptions {
   //! Faces the operator treats as absent (e.g. the other side of a crease the patch was split
   //! along, so each side is faired on its own and the crease stays sharp). Empty: none.
   std::function<bool(FaceHandle)> ignore_face;
+  //! Rings of fixed vertices around the free set that a base surface (a sphere or a quadratic
+  //! height field) is fitted to; 0: no base surface, plain L^k x = 0.
+  int base_fit_rings = 2;
+  //! The better of the two fits is used only if the fitted points' RMS distance from it is
+  //! below this fraction of their RMS distance from their centroid: surroundings such a
+  //! surface describes (measured on the cases: 0.05 takes spheres and smooth scan patches,
+  //! 0.1-0.2 takes bumpy ones, where the fit is a worse guess than plain fairing).
+  double base_fit_tolerance = 0.05;
 };
 
 struct FairingReport {
   bool ok = false;
   std::string failure;
   std::size_t free_vertices = 0;
+  //! "sphere" or "quadric": the surface fitted to the surroundings that the patch continues
+  //! (its deviation from it was faired); empty: plain fairing.
+  std::string base_surface;
 };
 
 //! Moves \p free_vertices to the solution of L^k x = 0; all other vertices stay fixed.
-//! On failure (singular system) nothing moves.
+//! With a base surface (options.base_fit_rings > 0 and a fit within tolerance), that solution
+//! places the free vertices along the surface, and their offsets from the base surface solve
+//! L^k d = 0 with the fixed vertices' offsets as boundary values: the patch is the base
+//! surface plus the smoothest correction that meets the boundary. Surroundings that lie on a
+//! sphere or a quadric are so continued exactly, where L^k x = 0 alone flattens them (the
+//! discrete thin plate's minimiser is not a sphere). On failure (singular system) nothing moves.
 FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_vertices,
                             const FairingOptions& options = {});
 

@@ -768,6 +768,8 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
       const FairingReport fr = fair_vertices(mesh, free, fo);
       report.phases.fair += seconds_since(t0);
       if (!fr.ok) return "fairing failed (" + fr.failure + ")";
+      if (!fr.base_surface.empty() && report.fair_base.find(fr.base_surface) == std::string::npos)
+        report.fair_base += (report.fair_base.empty() ? "" : "/") + fr.base_surface;
     }
     return {};
   };
@@ -1048,6 +1050,9 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       } else {
         attempt.shape_reason = shape_reason;
       }
+      if (attempt.shape == PatchShape::Fair && !attempt.fair_base.empty())
+        attempt.shape_reason += fmt::format(
+            "; the patch continues the {} fitted to the surroundings", attempt.fair_base);
       attempt.filled = true;
       attempt.reason.clear();
       attempt.faces_added = faces.size();

@@ -99,6 +99,9 @@ struct HoleFillReport {
   std::string reference_plane;          //!< which normal made the hole simple ("none" if complex)
   PatchShape shape = PatchShape::Flat;  //!< the shape actually applied
   std::string shape_reason;
+  //! Faired patches: the surface fitted to the surroundings that the fairing continued
+  //! ("sphere", "quadric"; fairing.h), empty when the plain bi-Laplacian was used.
+  std::string fair_base;
   std::size_t pieces = 1;
   std::string creases;  //!< SharpMode::Auto: what crosses the hole and what was done with it
   std::size_t crease_curves = 0;  //!< curves the patch was split along
