@@ -87,9 +87,9 @@ int main(int argc, char** argv) {
       ->add_option(
           "--shape", fill.shape,
           "flat: keep the refined triangulation; fair: bi-Laplacian fairing that continues\n"
-          "the surrounding surface (exactly, where it is a sphere or a quadric); auto: flat where "
-          "the surroundings are planar or\n"
-          "piecewise planar along creases (CAD), else fair (the report says why)")
+          "the surrounding surface (exactly, where it is a sphere or a quadric); auto: flat\n"
+          "where the surroundings are planar or piecewise planar along creases (CAD), else\n"
+          "fair (the report says why)")
       ->check(CLI::IsMember({"flat", "fair", "auto"}))
       ->capture_default_str();
   fill_cmd

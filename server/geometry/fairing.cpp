@@ -53,7 +53,10 @@ struct BaseSurface {
 
 double rms_deviation(const BaseSurface& base, const std::vector<Vec3>& points) {
   double sum = 0;
-  for (const Vec3& p : points) sum += base.deviation(p) * base.deviation(p);
+  for (const Vec3& p : points) {
+    const double d = base.deviation(p);
+    sum += d * d;
+  }
   return std::sqrt(sum / static_cast<double>(points.size()));
 }
 
@@ -257,8 +260,8 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
   for (int i = n_free; i < n; ++i)
     for (int c = 0; c < 3; ++c)
       fixed(i - n_free, c) = mesh.point(vertices[static_cast<std::size_t>(i)])[c];
-  // With a quadric base, a fourth column carries the fixed vertices' heights over the quadric:
-  // its solution is the faired deviation the free vertices get over the quadric.
+  // With a base surface, a fourth column carries the fixed vertices' deviations from it: its
+  // solution is the faired deviation the free vertices get from it.
   Eigen::MatrixXd known(n - n_free, base ? 4 : 3);
   known.leftCols(3) = fixed;
   if (base)

@@ -26,6 +26,12 @@ MeshSoup grid(int nx, int ny, const std::function<double(double, double)>& heigh
   return s;
 }
 
+MeshSoup grid_with_round_hole(const std::function<double(double, double)>& height) {
+  return remove_faces(grid(16, 16, height), [](const Vec3& c) {
+    return (c[0] - 8) * (c[0] - 8) + (c[1] - 8) * (c[1] - 8) < 16;
+  });
+}
+
 MeshSoup cylinder(double r, double height, int around, int rings) {
   MeshSoup s;
   for (int k = 0; k < rings; ++k)

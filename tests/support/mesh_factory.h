@@ -20,6 +20,9 @@ using geometry::Vec3;
 //! seen from +z.
 MeshSoup grid(int nx, int ny, const std::function<double(double, double)>& height = {});
 
+//! grid(16, 16, height) with a round hole of radius 4 in the middle (about 30 boundary edges).
+MeshSoup grid_with_round_hole(const std::function<double(double, double)>& height = {});
+
 //! An open cylinder of radius r around the z axis, `around` vertices per ring, `rings`
 //! rings from z = 0 to z = height, outward-facing.
 MeshSoup cylinder(double r, double height, int around, int rings);

@@ -70,10 +70,7 @@ TEST(Fairing, SurroundingsOnASphereAreContinuedExactly) {
 //! A 16x16 grid over the graph of \p height with a round hole of radius 4, filled flat (the
 //! spanning triangulation, refined): the new vertices are what fairing moves.
 CapFill flat_grid_fill(const std::function<double(double, double)>& height) {
-  const MeshSoup s = testing::remove_faces(testing::grid(16, 16, height), [](const Vec3& c) {
-    return (c[0] - 8) * (c[0] - 8) + (c[1] - 8) * (c[1] - 8) < 16;
-  });
-  CapFill out{build_mesh(s).mesh, {}};
+  CapFill out{build_mesh(testing::grid_with_round_hole(height)).mesh, {}};
   const auto holes = find_holes(out.mesh).holes;
   FillOptions o;
   o.shape = PatchShape::Flat;

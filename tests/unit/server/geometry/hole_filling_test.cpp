@@ -46,16 +46,8 @@ double min_new_angle(const FillRun& run) {
   return a;
 }
 
-//! A 16x16 grid (a height field if \p height is given) with a round hole of radius 4 in the
-//! middle.
-MeshSoup grid_with_round_hole(const std::function<double(double, double)>& height = {}) {
-  return remove_faces(testing::grid(16, 16, height), [](const Vec3& c) {
-    return (c[0] - 8) * (c[0] - 8) + (c[1] - 8) * (c[1] - 8) < 16;
-  });
-}
-
 TEST(FillHole, PlanarHoleInAGridStaysExactlyPlanar) {
-  const MeshSoup s = grid_with_round_hole();
+  const MeshSoup s = testing::grid_with_round_hole();
   const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() < 64; });
   ASSERT_EQ(run.reports.size(), 1u);
   const HoleFillReport& r = run.reports[0];
@@ -183,7 +175,7 @@ TEST(FillHole, HoleWrapping270DegreesAroundACylinderGoesPiecewise) {
 
 TEST(FillHole, SaddleHoleProjectsAndGoesPlanar) {
   auto saddle = [](double x, double y) { return 0.04 * ((x - 8) * (x - 8) - (y - 8) * (y - 8)); };
-  const MeshSoup s = grid_with_round_hole(saddle);
+  const MeshSoup s = testing::grid_with_round_hole(saddle);
   const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() < 64; });
   ASSERT_EQ(run.reports.size(), 1u);
   const HoleFillReport& r = run.reports[0];
