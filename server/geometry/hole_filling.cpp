@@ -862,7 +862,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     return finish();
   }
   const LoopData loop = gather_loop(mesh, hole);
-  if (!(reach.longest_edge > 0)) reach.longest_edge = max_edge_length(mesh);
+  if (!(reach.longest_edge > 0)) reach = make_search_reach(mesh);
   // The faces around the hole, for the triangulations that check many candidate triangles
   // against the mesh (piecewise chords, the avoiding 3D triangulation, ear clipping): gathered
   // once, when one of them first asks.
@@ -1129,11 +1129,11 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
         selected.push_back(&found.holes[nearest->index]);
       break;
   }
-  // Per-mesh preparation, like the hole search above: the longest edge bounds the local
-  // searches for the faces near each hole (one pass over the edges). Not part of any hole's
+  // Per-mesh preparation, like the hole search above: the search reach bounds the local
+  // searches for the faces near each hole (one pass over the faces). Not part of any hole's
   // time; the report gives it as prepare_seconds.
   const auto prepare_start = Clock::now();
-  SearchReach reach{selected.empty() ? 0.0 : max_edge_length(mesh), {}};
+  SearchReach reach = selected.empty() ? SearchReach{} : make_search_reach(mesh);
   // Headroom for the new elements. OpenMesh's meshes have no move operations, so a mesh that
   // was copied (out of build_mesh's result, into a session) has arrays exactly full, and the
   // first new face would reallocate every property array of the mesh inside a hole's fill

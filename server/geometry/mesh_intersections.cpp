@@ -31,34 +31,87 @@ bool face_from_lowest_inside(const Mesh& mesh, HalfedgeHandle h, const Box3& box
   return true;
 }
 
+//! Squared length of the longest edge of \p t: the one measure SearchReach's "long" rests on
+//! (the scans and the lists must agree on which faces are long).
+double longest_sqr_edge(const TrianglePoints& t) {
+  return std::max({(t[1] - t[0]).sqrnorm(), (t[2] - t[1]).sqrnorm(), (t[0] - t[2]).sqrnorm()});
+}
+
+//! Calls visit(vertex, point) for every non-deleted vertex that may lie in \p box (at least
+//! those that do), each once, until it returns false: through the grid's cells when there is a
+//! grid and the box covers fewer cells than half the filed vertices, else over all vertices.
+template <typename Visit>
+void for_each_vertex_near(const Mesh& mesh, const Box3& box, const VertexGrid& grid,
+                          Visit&& visit) {
+  const auto visit_vertex = [&](VertexHandle v) {
+    const Vec3& p = mesh.point(v);
+    return visit(v, Eigen::Vector3d(p[0], p[1], p[2]));
+  };
+  const auto scan_all = [&] {
+    for (const VertexHandle v : mesh.vertices())
+      if (!visit_vertex(v)) return;
+  };
+  if (grid.empty()) return scan_all();
+  const Eigen::Vector3i lo = grid.cell_of(box.min()).cwiseMax(0);
+  const Eigen::Vector3i hi = grid.cell_of(box.max()).cwiseMin(grid.cells - Eigen::Vector3i::Ones());
+  double covered = 1;
+  for (int k = 0; k < 3; ++k) covered *= std::max(0, hi[k] - lo[k] + 1);
+  if (covered > 0.5 * static_cast<double>(grid.filed.size())) return scan_all();
+  if (covered > 0) {
+    Eigen::Vector3i c;
+    for (c.z() = lo.z(); c.z() <= hi.z(); ++c.z())
+      for (c.y() = lo.y(); c.y() <= hi.y(); ++c.y())
+        for (c.x() = lo.x(); c.x() <= hi.x(); ++c.x()) {
+          const std::size_t bucket = grid.bucket_of(c);
+          for (std::uint32_t i = grid.bucket_start[bucket]; i < grid.bucket_start[bucket + 1];
+               ++i) {
+            const VertexHandle v(static_cast<int>(grid.filed[i]));
+            if (mesh.status(v).deleted()) continue;
+            const Vec3& p = mesh.point(v);
+            const Eigen::Vector3d q(p[0], p[1], p[2]);
+            // Other cells share the bucket: each vertex is visited at its own cell only.
+            if (grid.cell_of(q) != c) continue;
+            if (!visit(v, q)) return;
+          }
+        }
+  }
+  for (std::size_t i = grid.filed_below; i < mesh.n_vertices(); ++i) {
+    const VertexHandle v(static_cast<int>(i));
+    if (!mesh.status(v).deleted() && !visit_vertex(v)) return;
+  }
+}
+
 //! Calls visit(face, triangle, corner ids) once for every non-deleted face that may meet \p box:
 //! those with a corner within the reach's longest edge of it (only at points that pass
 //! \p keep_point, a cheaper test the caller may narrow the search with), and the reach's long
-//! faces. The callers test the boxes themselves.
+//! faces whose boxes meet it. The callers test the boxes themselves.
 template <typename KeepPoint, typename Visit>
 void for_each_face_near(const Mesh& mesh, const Box3& box, const SearchReach& reach,
                         KeepPoint&& keep_point, Visit&& visit) {
   Box3 grown = box;
   grown.min().array() -= reach.longest_edge;
   grown.max().array() += reach.longest_edge;
-  LocalSet long_faces(reach.long_faces.size() + 16);
-  for (const FaceHandle f : reach.long_faces) long_faces.insert(f.idx());
-  for (const VertexHandle v : mesh.vertices()) {
-    const Vec3& p = mesh.point(v);
-    const Eigen::Vector3d q(p[0], p[1], p[2]);
-    if (!grown.contains(q) || !keep_point(q)) continue;
+  const double reach_sqr = reach.longest_edge * reach.longest_edge;
+  bool stopped = false;
+  for_each_vertex_near(mesh, grown, reach.grid, [&](VertexHandle v, const Eigen::Vector3d& q) {
+    if (!grown.contains(q) || !keep_point(q)) return true;
     for (const HalfedgeHandle h : mesh.voh_range(v)) {
       TrianglePoints t;
       std::array<int, 3> ids;
       if (!face_from_lowest_inside(mesh, h, grown, t, ids)) continue;
-      const FaceHandle g = mesh.face_handle(h);
-      if (long_faces.contains(g.idx())) continue;  // visited below
-      if (!visit(g, t, ids)) return;
+      if (longest_sqr_edge(t) > reach_sqr) continue;  // a long face: visited below
+      if (!visit(mesh.face_handle(h), t, ids)) {
+        stopped = true;
+        return false;
+      }
     }
-  }
-  for (const FaceHandle g : reach.long_faces) {
-    if (!g.is_valid() || static_cast<std::size_t>(g.idx()) >= mesh.n_faces() ||
-        mesh.status(g).deleted())
+    return true;
+  });
+  if (stopped) return;
+  for (std::size_t i = 0; i < reach.long_faces.size(); ++i) {
+    const FaceHandle g = reach.long_faces[i];
+    if (!reach.long_boxes[i].intersects(box) || !g.is_valid() ||
+        static_cast<std::size_t>(g.idx()) >= mesh.n_faces() || mesh.status(g).deleted())
       continue;
     TrianglePoints t;
     std::array<int, 3> ids;
@@ -69,13 +122,126 @@ void for_each_face_near(const Mesh& mesh, const Box3& box, const SearchReach& re
 
 }  // namespace
 
-void SearchReach::add(const Mesh& mesh, std::span<const FaceHandle> faces) {
-  for (const FaceHandle f : faces) {
-    double longest = 0;
-    for (const HalfedgeHandle h : mesh.fh_range(f))
-      longest = std::max(longest, mesh.calc_edge_length(h));
-    if (longest > longest_edge) long_faces.push_back(f);
+Eigen::Vector3i VertexGrid::cell_of(const Eigen::Vector3d& q) const {
+  Eigen::Vector3i c;
+  for (int k = 0; k < 3; ++k) {
+    // Clamped before the conversion, so a point far outside (or NaN) cannot overflow it.
+    const double d = std::floor((q[k] - origin[k]) / cell);
+    c[k] = !(d > -1) ? -1 : d >= cells[k] ? cells[k] : static_cast<int>(d);
   }
+  return c;
+}
+
+std::size_t VertexGrid::bucket_of(const Eigen::Vector3i& c) const {
+  const auto h = static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.x())) * 73856093u ^
+                 static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.y())) * 19349663u ^
+                 static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.z())) * 83492791u;
+  return static_cast<std::size_t>((h ^ (h >> 29)) & (bucket_start.size() - 2));
+}
+
+void SearchReach::add(const Mesh& mesh, std::span<const FaceHandle> faces) {
+  const double reach_sqr = longest_edge * longest_edge;
+  for (const FaceHandle f : faces) {
+    TrianglePoints t;
+    std::array<int, 3> ids;
+    face_corners(mesh, f, t, ids);
+    if (longest_sqr_edge(t) > reach_sqr) {
+      long_faces.push_back(f);
+      long_boxes.push_back(triangle_box(t));
+    }
+  }
+}
+
+namespace {
+
+//! The grid of \p mesh's vertices with cells of (about) \p cell: one counting sort by bucket.
+VertexGrid file_vertices(const Mesh& mesh, double cell) {
+  VertexGrid grid;
+  Box3 bounds;
+  for (const VertexHandle v : mesh.vertices()) {
+    const Vec3& p = mesh.point(v);
+    bounds.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  }
+  if (bounds.isEmpty() || !(cell > 0)) return grid;
+  // At most 2^20 cells along an axis (the cell coordinates stay far from int's range).
+  grid.cell = std::max(cell, bounds.sizes().maxCoeff() / double(1 << 20));
+  grid.origin = bounds.min();
+  for (int k = 0; k < 3; ++k)
+    grid.cells[k] =
+        static_cast<int>(std::floor((bounds.max()[k] - grid.origin[k]) / grid.cell)) + 1;
+  std::size_t buckets = 1;
+  while (buckets < mesh.n_vertices()) buckets *= 2;
+  grid.bucket_start.assign(buckets + 1, 0);
+  constexpr std::uint32_t kNone = ~std::uint32_t{0};
+  std::vector<std::uint32_t> bucket(mesh.n_vertices(), kNone);
+  for (const VertexHandle v : mesh.vertices()) {
+    const Vec3& p = mesh.point(v);
+    const auto b =
+        static_cast<std::uint32_t>(grid.bucket_of(grid.cell_of(Eigen::Vector3d(p[0], p[1], p[2]))));
+    bucket[static_cast<std::size_t>(v.idx())] = b;
+    ++grid.bucket_start[b + 1];
+  }
+  for (std::size_t b = 0; b < buckets; ++b) grid.bucket_start[b + 1] += grid.bucket_start[b];
+  grid.filed.resize(grid.bucket_start[buckets]);
+  std::vector<std::uint32_t> next(grid.bucket_start.begin(), grid.bucket_start.end() - 1);
+  for (std::size_t i = 0; i < bucket.size(); ++i)
+    if (bucket[i] != kNone) grid.filed[next[bucket[i]]++] = static_cast<std::uint32_t>(i);
+  grid.filed_below = mesh.n_vertices();
+  return grid;
+}
+
+}  // namespace
+
+SearchReach make_search_reach(const Mesh& mesh, bool with_grid) {
+  // Cost of a search: the points within longest_edge of its box, plus one box test per long
+  // face. A few times the median edge keeps the first small on every mesh measured; on a
+  // uniformly meshed surface nothing is listed (3x the median is above the longest edge).
+  constexpr double kMedianFactor = 3.0;
+  // The median from a sample of the edges (a few thousand, evenly spread over the edge array)
+  // is as good a scale as the exact one, at a fraction of the cost on a large mesh.
+  constexpr std::size_t kSampled = 4096;
+  const std::size_t n_edges = mesh.n_edges();
+  std::vector<double> lengths(n_edges, -1.0);  // squared; -1 for a deleted edge
+  double max_sqr = 0;
+  for (const EdgeHandle e : mesh.edges()) {
+    const double sqr = mesh.calc_edge_sqr_length(e);
+    lengths[static_cast<std::size_t>(e.idx())] = sqr;
+    max_sqr = std::max(max_sqr, sqr);
+  }
+  const std::size_t stride = std::max<std::size_t>(1, n_edges / kSampled);
+  std::vector<double> sample;
+  sample.reserve(n_edges / stride + 1);
+  for (std::size_t i = 0; i < n_edges; i += stride)
+    if (lengths[i] >= 0) sample.push_back(lengths[i]);
+  SearchReach reach;
+  if (sample.empty()) return reach;
+  const auto middle = sample.begin() + static_cast<std::ptrdiff_t>(sample.size() / 2);
+  std::nth_element(sample.begin(), middle, sample.end());
+  reach.longest_edge = std::sqrt(std::min(max_sqr, kMedianFactor * kMedianFactor * *middle));
+  // A scan of a few thousand points costs less than filing them (the round trip of the
+  // interactive fill is measured on such a mesh).
+  constexpr std::size_t kGridFrom = 8192;
+  if (with_grid && mesh.n_vertices() >= kGridFrom)
+    reach.grid = file_vertices(mesh, reach.longest_edge);
+  const double reach_sqr = reach.longest_edge * reach.longest_edge;
+  if (!(reach_sqr < max_sqr)) return reach;
+  // The faces of the edges longer than the reach, each once.
+  std::vector<char> listed(mesh.n_faces(), 0);
+  for (std::size_t i = 0; i < n_edges; ++i) {
+    if (!(lengths[i] > reach_sqr)) continue;
+    const EdgeHandle e(static_cast<int>(i));
+    for (int side = 0; side < 2; ++side) {
+      const FaceHandle f = mesh.face_handle(mesh.halfedge_handle(e, side));
+      if (!f.is_valid() || listed[static_cast<std::size_t>(f.idx())]) continue;
+      listed[static_cast<std::size_t>(f.idx())] = 1;
+      TrianglePoints t;
+      std::array<int, 3> ids;
+      face_corners(mesh, f, t, ids);
+      reach.long_faces.push_back(f);
+      reach.long_boxes.push_back(triangle_box(t));
+    }
+  }
+  return reach;
 }
 
 double max_edge_length(const Mesh& mesh) {
@@ -85,7 +251,7 @@ double max_edge_length(const Mesh& mesh) {
 }
 
 std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Box3& box, double longest_edge) {
-  return faces_in_box(mesh, box, SearchReach{longest_edge, {}});
+  return faces_in_box(mesh, box, SearchReach{longest_edge, {}, {}, {}});
 }
 
 std::vector<FaceHandle> faces_in_box(const Mesh& mesh, const Box3& box, const SearchReach& reach) {
@@ -187,7 +353,7 @@ std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
 
 namespace {
 SearchReach reach_of(const Mesh& mesh, double longest_edge) {
-  return SearchReach{longest_edge > 0 ? longest_edge : max_edge_length(mesh), {}};
+  return longest_edge > 0 ? SearchReach{longest_edge, {}, {}, {}} : make_search_reach(mesh, false);
 }
 }  // namespace
 

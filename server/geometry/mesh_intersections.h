@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <utility>
 #include <vector>
@@ -31,17 +32,47 @@ inline void face_corners(const Mesh& mesh, FaceHandle f, TrianglePoints& points,
 //! Length of the longest edge (the search radius that makes faces_in_box exact).
 double max_edge_length(const Mesh& mesh);
 
-//! How far the local searches look around a box: every face meeting it has a corner within the
-//! longest edge of it, except the faces listed in long_faces, which every search tests directly.
-//! A fill adds a few long triangles to a finely meshed scan (a large hole's patch is coarser than
-//! the surface around it); keeping them on the list, not in longest_edge, keeps every later
-//! search as local as the mesh is fine.
+//! The mesh's vertices filed by a uniform grid of cells (hashed into buckets, so the memory is
+//! linear in the vertices however large the bounding box): a search visits the cells its box
+//! covers instead of every vertex. Vertices added after it was built (a fill's new vertices)
+//! are not filed; the searches scan them directly.
+struct VertexGrid {
+  double cell = 0;  //!< 0: no grid (every search scans all vertices)
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Eigen::Vector3i cells = Eigen::Vector3i::Zero();  //!< cells per axis over the filed vertices
+  std::vector<std::uint32_t> bucket_start;          //!< a power of two plus one entries
+  std::vector<std::uint32_t> filed;                 //!< vertex indices, ordered by bucket
+  std::size_t filed_below = 0;                      //!< vertices with a smaller index were filed
+
+  bool empty() const { return !(cell > 0); }
+  //! The cell of point \p q (unclamped).
+  Eigen::Vector3i cell_of(const Eigen::Vector3d& q) const;
+  std::size_t bucket_of(const Eigen::Vector3i& c) const;
+};
+
+//! How far the local searches look around a box: every face meeting it has a corner within
+//! longest_edge of it, except the faces listed in long_faces, which every search tests directly
+//! (by their boxes, kept beside them). A face is long when one of its edges is longer than
+//! longest_edge. CAD meshes mix fine triangles with long strips (couplingdown: the longest
+//! edge is 12 times the median), and a fill adds a few long triangles to a finely meshed scan
+//! (a large hole's patch is coarser than the surface around it); keeping those faces on the
+//! list, not in longest_edge, keeps every search as local as most of the mesh is fine.
 struct SearchReach {
   double longest_edge = 0;
   std::vector<FaceHandle> long_faces;
+  std::vector<Eigen::AlignedBox3d> long_boxes;  //!< the boxes of long_faces, in their order
+  //! Optional: where the vertices are. The mesh's existing vertices must not move while it is
+  //! used (a fill moves only the vertices it adds).
+  VertexGrid grid;
   //! Files \p faces, added to the mesh: on long_faces those with an edge over longest_edge.
   void add(const Mesh& mesh, std::span<const FaceHandle> faces);
 };
+
+//! The reach for \p mesh: longest_edge is a few times the median edge (capped by the longest
+//! edge), the faces with a longer edge are listed, and, with \p with_grid and a mesh of more
+//! than a few thousand vertices, the vertices are filed in a grid of cells that size (worth it
+//! for several searches, like a fill's; a single search scans the vertices as fast).
+SearchReach make_search_reach(const Mesh& mesh, bool with_grid = true);
 
 //! Every face whose bounding box meets \p box. Found through the vertices within
 //! \p longest_edge of the box (every point of a triangle lies within its longest edge of

@@ -1,9 +1,11 @@
 #include "server/geometry/intersection.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
 
+#include "server/geometry/bvh.h"
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_intersections.h"
 #include "tests/support/mesh_factory.h"
@@ -92,6 +94,83 @@ TEST(MeshIntersections, InjectiveProjectionAndTestsAgainstTheRest) {
   std::vector<FaceHandle> both(crossing.faces().begin(), crossing.faces().end());
   EXPECT_TRUE(find_intersections_with_rest(crossing, both).empty());
   EXPECT_FALSE(find_face_intersections(crossing, both).empty());
+}
+
+// The reach's grid of vertices and list of long faces must find exactly what a scan of every face
+// finds: on a mesh large enough to get a grid, with long faces beside fine ones, and after new
+// vertices and faces were added (as a fill adds them).
+TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
+  MeshSoup soup = testing::uv_sphere(1, 128, 72);  // fine: > 8,192 vertices
+  const auto offset = static_cast<std::uint32_t>(soup.points.size());
+  const auto first_cube_face = static_cast<int>(soup.triangles.size());
+  for (const Vec3& p : testing::cube(1).points) soup.points.push_back(p * 1.5 + Vec3(-0.2, 0, 0));
+  for (const auto& t : testing::cube(1).triangles)  // long faces, through the sphere
+    soup.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  Mesh mesh = build_mesh(soup).mesh;
+  SearchReach reach = make_search_reach(mesh);
+  ASSERT_FALSE(reach.grid.empty());
+  ASSERT_FALSE(reach.long_faces.empty());
+  EXPECT_LT(reach.longest_edge, max_edge_length(mesh));
+
+  // Vertices and faces added after the grid was built, as a fill adds them: a long face and a
+  // short one, off the cube.
+  const VertexHandle apex = mesh.add_vertex(Vec3(1.6, 0.1, 0.1));
+  std::vector<FaceHandle> added;
+  added.push_back(mesh.add_face(apex, mesh.add_vertex(Vec3(1.7, 0.9, 0.1)),
+                                mesh.add_vertex(Vec3(1.6, 0.1, 0.9))));
+  added.push_back(mesh.add_face(apex, mesh.add_vertex(Vec3(1.6, 0.1, 0.08)),
+                                mesh.add_vertex(Vec3(1.62, 0.1, 0.1))));
+  reach.add(mesh, added);
+  ASSERT_EQ(reach.long_faces.back(), added[0]);  // the short one is found through its corners
+
+  const auto scan = [&](const Box3& box) {
+    std::vector<int> out;
+    for (const FaceHandle f : mesh.faces()) {
+      TrianglePoints t;
+      std::array<int, 3> ids;
+      face_corners(mesh, f, t, ids);
+      if (triangle_box(t).intersects(box)) out.push_back(f.idx());
+    }
+    return out;
+  };
+  const auto searched = [&](const Box3& box) {
+    std::vector<int> out;
+    for (const FaceHandle f : faces_in_box(mesh, box, reach)) out.push_back(f.idx());
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  std::size_t nonempty = 0;
+  for (int i = 0; i < 200; ++i) {
+    // Boxes from a point's size to the whole mesh, all over it.
+    const double size = 0.002 * std::pow(1.04, i);
+    const Vec3 c(std::sin(1.7 * i) * 1.2, std::cos(2.3 * i) * 1.2, std::sin(0.9 * i + 1) * 1.2);
+    const Box3 box(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
+                   Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
+    const std::vector<int> expected = scan(box);
+    nonempty += expected.empty() ? 0 : 1;
+    ASSERT_EQ(searched(box), expected) << "box " << i;
+  }
+  EXPECT_GT(nonempty, 60u);  // most boxes meet faces
+  const Box3 at_long_face(Eigen::Vector3d(1.65, 0.4, 0.4), Eigen::Vector3d(1.66, 0.41, 0.41));
+  EXPECT_EQ(searched(at_long_face), std::vector<int>{added[0].idx()});
+  const Box3 at_short_face(Eigen::Vector3d(1.605, 0.09, 0.09), Eigen::Vector3d(1.61, 0.11, 0.095));
+  EXPECT_EQ(searched(at_short_face), std::vector<int>{added[1].idx()});
+
+  // The same intersecting pairs as with the plain reach (the cube cuts through the sphere).
+  std::vector<FaceHandle> cube_faces;
+  for (const FaceHandle f : mesh.faces())
+    if (f.idx() >= first_cube_face && f.idx() < static_cast<int>(soup.triangles.size()))
+      cube_faces.push_back(f);
+  const auto pairs = [](std::vector<std::pair<FaceHandle, FaceHandle>> found) {
+    std::vector<std::pair<int, int>> out;
+    for (const auto& [a, b] : found)
+      out.emplace_back(std::min(a.idx(), b.idx()), std::max(a.idx(), b.idx()));
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  const auto with_grid = pairs(find_face_intersections(mesh, cube_faces, 0, reach));
+  EXPECT_FALSE(with_grid.empty());
+  EXPECT_EQ(with_grid, pairs(find_face_intersections(mesh, cube_faces, 0, max_edge_length(mesh))));
 }
 
 }  // namespace
