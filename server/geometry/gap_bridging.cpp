@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <set>
 
 #include <fmt/format.h>
@@ -79,10 +80,10 @@ StitchResult stitch_triangle(Mesh& mesh, VertexHandle a, VertexHandle b, VertexH
     const std::array<int, 3> ids{from.idx(), to.idx(), t.idx()};
     Eigen::AlignedBox3d box;
     for (const Vec3& p : tri) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
-    const double reach =
-        std::max(options.longest_edge > 0 ? options.longest_edge : max_edge_length(mesh),
-                 std::sqrt(longest));
-    for (const FaceHandle f : faces_in_box(mesh, box, reach)) {
+    std::optional<SearchReach> own_reach;
+    if (!options.reach) own_reach = make_search_reach(mesh, false);
+    for (const FaceHandle f :
+         faces_in_box(mesh, box, options.reach ? *options.reach : *own_reach)) {
       TrianglePoints other;
       std::array<int, 3> other_ids{};
       int k = 0;
@@ -97,6 +98,7 @@ StitchResult stitch_triangle(Mesh& mesh, VertexHandle a, VertexHandle b, VertexH
   const FaceHandle face = mesh.add_face(from, to, t);
   if (!face.is_valid())
     return refuse("the mesh cannot take this face there (it would make a complex vertex)");
+  if (options.reach) options.reach->add(mesh, std::span<const FaceHandle>(&face, 1));
   StitchResult r;
   r.ok = true;
   r.face = face;
@@ -337,9 +339,12 @@ std::vector<Gap> find_gaps(const Mesh& mesh, const std::vector<Hole>& holes,
 ZipResult zip_gap(Mesh& mesh, const Gap& gap, const StitchOptions& stitch_options) {
   ZipResult result;
   StitchOptions options = stitch_options;
-  // One measurement for the whole zipper; each stitch's own edges extend the reach.
-  if (options.check_intersections && !(options.longest_edge > 0))
-    options.longest_edge = max_edge_length(mesh);
+  // One reach for the whole zipper (each stitch is filed in it as it is added).
+  std::optional<SearchReach> own_reach;
+  if (options.check_intersections && !options.reach) {
+    own_reach = make_search_reach(mesh);
+    options.reach = &*own_reach;
+  }
   const auto fail = [&](std::string why) {
     for (const FaceHandle f : result.faces)
       if (!mesh.status(f).deleted()) mesh.delete_face(f, false);
@@ -405,8 +410,15 @@ ZipResult zip_gap(Mesh& mesh, const Gap& gap, const StitchOptions& stitch_option
 }
 
 DetectedGapBridge bridge_detected_gap(Mesh& mesh, const Gap& gap, const FillOptions& fill,
-                                      const StitchOptions& options) {
+                                      const StitchOptions& stitch_options) {
   DetectedGapBridge out;
+  // One reach for the zipper and the fills after it.
+  StitchOptions options = stitch_options;
+  std::optional<SearchReach> own_reach;
+  if (!options.reach) {
+    own_reach = make_search_reach(mesh);
+    options.reach = &*own_reach;
+  }
   out.zip = zip_gap(mesh, gap, options);
   if (!out.zip.ok || gap.cyclic) return out;
   std::set<int> zipped;
@@ -426,7 +438,7 @@ DetectedGapBridge bridge_detected_gap(Mesh& mesh, const Gap& gap, const FillOpti
           return zipped.count(mesh.face_handle(mesh.opposite_halfedge_handle(h)).idx()) > 0;
         });
     if (!at_zipper) continue;
-    out.end_fills.push_back(fill_hole(mesh, hole, fill));
+    out.end_fills.push_back(fill_hole(mesh, hole, fill, *options.reach));
   }
   return out;
 }
@@ -437,8 +449,15 @@ std::size_t DetectedGapsBridge::bridged() const {
 }
 
 DetectedGapsBridge bridge_detected_gaps(Mesh& mesh, const std::vector<const Gap*>& gaps,
-                                        const FillOptions& fill, const StitchOptions& options) {
+                                        const FillOptions& fill,
+                                        const StitchOptions& stitch_options) {
   DetectedGapsBridge out;
+  StitchOptions options = stitch_options;
+  std::optional<SearchReach> own_reach;
+  if (!options.reach) {
+    own_reach = make_search_reach(mesh);
+    options.reach = &*own_reach;
+  }
   std::set<int> zipped;
   double widest = 0;
   for (const Gap* gap : gaps) {
@@ -457,7 +476,7 @@ DetectedGapsBridge bridge_detected_gaps(Mesh& mesh, const std::vector<const Gap*
           const FaceHandle f = mesh.face_handle(mesh.opposite_halfedge_handle(h));
           return f.is_valid() && zipped.count(f.idx()) > 0;
         });
-    if (at_zipper) out.leftover_fills.push_back(fill_hole(mesh, hole, fill));
+    if (at_zipper) out.leftover_fills.push_back(fill_hole(mesh, hole, fill, *options.reach));
   }
   return out;
 }

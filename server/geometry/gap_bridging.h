@@ -24,14 +24,15 @@
 
 #include "server/geometry/hole_filling.h"
 #include "server/geometry/mesh.h"
+#include "server/geometry/mesh_intersections.h"
 
 namespace touchmend::geometry {
 
 struct StitchOptions {
   bool check_intersections = true;
-  //! The mesh's longest edge if the caller knows it (the intersection search radius); 0 =
-  //! measured per stitch, O(mesh size).
-  double longest_edge = 0;
+  //! Where the intersection searches look, kept across the stitches of a zipper (each stitch
+  //! is filed in it); null: measured for the one stitch, O(mesh size).
+  SearchReach* reach = nullptr;
 };
 
 struct StitchResult {

@@ -1089,6 +1089,11 @@ HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& option
   return fill_hole_cached(mesh, hole, options, reach);
 }
 
+HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options,
+                         SearchReach& reach) {
+  return fill_hole_cached(mesh, hole, options, reach);
+}
+
 std::size_t FillReport::filled() const {
   return static_cast<std::size_t>(
       std::count_if(holes.begin(), holes.end(), [](const HoleFillReport& h) { return h.filled; }));

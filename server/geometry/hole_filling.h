@@ -35,6 +35,8 @@
 
 namespace touchmend::geometry {
 
+struct SearchReach;  // mesh_intersections.h
+
 enum class PatchShape { Flat, Fair, Auto };
 const char* to_string(PatchShape shape);
 bool parse_patch_shape(std::string_view text, PatchShape& shape);
@@ -129,6 +131,11 @@ struct HoleFillReport {
 //! Fills one hole found by find_holes() on the current mesh. On failure the mesh is
 //! unchanged (faces the attempt added are deleted; call garbage_collection() before export).
 HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options = {});
+//! The same with the searches' reach kept by the caller across several edits of one mesh (a
+//! zipper and the fills after it): made by make_search_reach on first use, the new faces filed
+//! in it.
+HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options,
+                         SearchReach& reach);
 
 struct FillSelection {
   enum class Mode { All, Ids, Nearest };
