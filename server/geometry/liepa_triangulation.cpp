@@ -26,12 +26,13 @@ constexpr double kInfinity = std::numeric_limits<double>::infinity();
 //! A measure of the angle between unit normals that grows with the angle on [0, π] and needs
 //! no trigonometry (the DP evaluates it O(n^3) times): sin² below 90°, 2 - sin² above. It is
 //! accurate near 0, where 1 - cos would lose half the digits.
-double angle_between(const Vec3& n1, const Vec3& n2) {
+[[gnu::always_inline]] inline double angle_between(const Vec3& n1, const Vec3& n2) {
   const double s2 = OpenMesh::cross(n1, n2).sqrnorm();
   return OpenMesh::dot(n1, n2) >= 0 ? s2 : 2.0 - s2;
 }
 
-Vec3 unit_normal(const Vec3& a, const Vec3& b, const Vec3& c, double& area) {
+[[gnu::always_inline]] inline Vec3 unit_normal(const Vec3& a, const Vec3& b, const Vec3& c,
+                                               double& area) {
   Vec3 nrm = OpenMesh::cross(b - a, c - a);
   const double len = nrm.norm();
   area = 0.5 * len;
@@ -133,6 +134,9 @@ LiepaTriangulation MinDihedralTriangulator::solve() {
     return !solved_once_ || k >= dirty_from_[static_cast<std::size_t>(i)];
   };
   for (int i = 0; i + 1 < n_; ++i) weight_[at(i, i + 1)] = Weight{};
+  // Most solves forbid nothing: no hash lookup per candidate then.
+  const bool any_forbidden =
+      !forbidden_.empty() || (external_forbidden_ != nullptr && !external_forbidden_->empty());
   for (int len = 2; len < n_; ++len) {
     for (int i = 0; i + len < n_; ++i) {
       const int k = i + len;
@@ -150,27 +154,50 @@ LiepaTriangulation MinDihedralTriangulator::solve() {
         const Weight& left = weight_[at(i, m)];
         const Weight& right = weight_[at(m, k)];
         if (!(left.angle < kInfinity) || !(right.angle < kInfinity)) continue;
-        // The combined weight's angle is at least the larger of the two parts': when that
-        // already loses to the best so far, this candidate cannot win (no triangle to build).
-        if (std::max(left.angle, right.angle) > best.angle + kAngleTie) continue;
-        if (is_forbidden(i, m, k)) continue;
+        // The combined weight's angle is at least the larger of the two parts' and of each
+        // dihedral below: once one of them loses to the best so far, this candidate cannot win
+        // (the checks follow in order of cost).
+        const double bound = best.angle + kAngleTie;
+        if (std::max(left.angle, right.angle) > bound) continue;
+        if (any_forbidden && is_forbidden(i, m, k)) continue;
         double area;
         const Vec3 nrm = unit_normal(loop_[i], loop_[m], loop_[k], area);
         if (area <= min_area_) continue;
         // Dihedral deviation against the known neighbours across (i, m) and (m, k).
         const Vec3& n_im = (m == i + 1) ? boundary_normal_[i] : chosen_normal_[at(i, m)];
+        double angle = angle_between(nrm, n_im);
+        if (angle > bound) continue;
         const Vec3& n_mk = (k == m + 1) ? boundary_normal_[m] : chosen_normal_[at(m, k)];
-        double angle = std::max(angle_between(nrm, n_im), angle_between(nrm, n_mk));
+        angle = std::max(angle, angle_between(nrm, n_mk));
+        if (angle > bound) continue;
         if (i == 0 && k == n_ - 1)
           angle = std::max(angle, angle_between(nrm, boundary_normal_[n_ - 1]));
-        const Weight w =
-            left + right +
-            Weight{angle, area, min_angle_sine(loop_[i], loop_[m], loop_[k], 2 * area)};
-        if (w < best) {
-          best = w;
-          best_m = m;
-          best_normal = nrm;
+        // The weight left + right + this triangle, compared as Weight::operator< does; its
+        // shape term (the dearest) is computed only when angle and area tie with the best or
+        // the candidate wins.
+        Weight w = left + right;
+        w.angle = std::max(w.angle, angle);
+        w.area += area;
+        bool shape_known = false;
+        const auto add_shape = [&] {
+          if (shape_known) return;
+          w.shape = std::min(w.shape, min_angle_sine(loop_[i], loop_[m], loop_[k], 2 * area));
+          shape_known = true;
+        };
+        bool wins;
+        if (std::abs(w.angle - best.angle) > kAngleTie) {
+          wins = w.angle < best.angle;
+        } else if (std::abs(w.area - best.area) > kAreaTie * std::max(w.area, best.area)) {
+          wins = w.area < best.area;
+        } else {
+          add_shape();
+          wins = w.shape > best.shape;
         }
+        if (!wins) continue;
+        add_shape();
+        best = w;
+        best_m = m;
+        best_normal = nrm;
       }
       weight_[at(i, k)] = best;
       lambda_[at(i, k)] = best_m;
