@@ -64,17 +64,20 @@ double rms_deviation(const BaseSurface& base, const std::vector<Vec3>& points) {
 //! in coordinates centred on \p centroid and divided by \p scale.
 std::optional<BaseSurface> fit_sphere(const std::vector<Vec3>& points, const Vec3& centroid,
                                       double scale) {
-  const Eigen::Index m = static_cast<Eigen::Index>(points.size());
-  Eigen::MatrixXd design(m, 4);
-  Eigen::VectorXd squares(m);
-  for (Eigen::Index r = 0; r < m; ++r) {
-    const Vec3 q = (points[static_cast<std::size_t>(r)] - centroid) / scale;
-    design.row(r) << 2 * q[0], 2 * q[1], 2 * q[2], 1;
-    squares[r] = q.sqrnorm();
+  // Normal equations, accumulated in fixed-size matrices (no allocation: this runs for every
+  // faired patch); the coordinates are centred and scaled, so they are well conditioned.
+  Eigen::Matrix4d normal_matrix = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+  for (const Vec3& p : points) {
+    const Vec3 q = (p - centroid) / scale;
+    const Eigen::Vector4d row(2 * q[0], 2 * q[1], 2 * q[2], 1);
+    normal_matrix.selfadjointView<Eigen::Lower>().rankUpdate(row);
+    rhs += q.sqrnorm() * row;
   }
-  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(design);
+  normal_matrix.triangularView<Eigen::StrictlyUpper>() = normal_matrix.transpose();
+  const Eigen::ColPivHouseholderQR<Eigen::Matrix4d> qr(normal_matrix);
   if (qr.rank() < 4) return std::nullopt;
-  const Eigen::Vector4d x = qr.solve(squares);
+  const Eigen::Vector4d x = qr.solve(rhs);
   const double radius_squared = x[3] + x.head<3>().squaredNorm();
   if (!x.allFinite() || !(radius_squared > 0)) return std::nullopt;
   BaseSurface sphere;
@@ -94,19 +97,19 @@ std::optional<BaseSurface> fit_quadric(const std::vector<Vec3>& points, const Ve
   quadric.axis_u = column(2);
   quadric.axis_v = OpenMesh::cross(quadric.normal, quadric.axis_u);
   quadric.scale = scale;
-  const Eigen::Index m = static_cast<Eigen::Index>(points.size());
-  Eigen::MatrixXd design(m, 6);
-  Eigen::VectorXd heights(m);
-  for (Eigen::Index r = 0; r < m; ++r) {
-    const Vec3 d = points[static_cast<std::size_t>(r)] - centroid;
-    design.row(r) = BaseSurface::monomials(OpenMesh::dot(d, quadric.axis_u) / scale,
-                                           OpenMesh::dot(d, quadric.axis_v) / scale)
-                        .transpose();
-    heights[r] = OpenMesh::dot(d, quadric.normal);
+  Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+  for (const Vec3& p : points) {
+    const Vec3 d = p - centroid;
+    const Eigen::Matrix<double, 6, 1> row = BaseSurface::monomials(
+        OpenMesh::dot(d, quadric.axis_u) / scale, OpenMesh::dot(d, quadric.axis_v) / scale);
+    normal_matrix.selfadjointView<Eigen::Lower>().rankUpdate(row);
+    rhs += OpenMesh::dot(d, quadric.normal) * row;
   }
-  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(design);
+  normal_matrix.triangularView<Eigen::StrictlyUpper>() = normal_matrix.transpose();
+  const Eigen::ColPivHouseholderQR<Eigen::Matrix<double, 6, 6>> qr(normal_matrix);
   if (qr.rank() < 6) return std::nullopt;
-  quadric.coefficients = qr.solve(heights);
+  quadric.coefficients = qr.solve(rhs);
   if (!quadric.coefficients.allFinite()) return std::nullopt;
   return quadric;
 }
