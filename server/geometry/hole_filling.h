@@ -104,6 +104,9 @@ struct HoleFillReport {
   //! Faired patches: the surface fitted to the surroundings that the fairing continued
   //! ("sphere", "quadric"; fairing.h), empty when the plain bi-Laplacian was used.
   std::string fair_base;
+  //! The last faired attempt: how far its vertices rose off the spanning triangulation, in hole
+  //! radii (above FillOptions::max_fair_bulge it was refused as a balloon); 0 if none was faired.
+  double fair_bulge = 0;
   std::size_t pieces = 1;
   std::string creases;  //!< SharpMode::Auto: what crosses the hole and what was done with it
   std::size_t crease_curves = 0;  //!< curves the patch was split along

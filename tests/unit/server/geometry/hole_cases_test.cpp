@@ -188,10 +188,39 @@ TEST(HoleCasesShape, CoarseCurvedSurfaceIsFairedAndBalloonsStayFlat) {
   const auto [fair2, fair2_score] = fill_case_hole(2, fair);
   EXPECT_EQ(fair2.shape, PatchShape::Fair);
   EXPECT_EQ(auto2.shape, PatchShape::Flat) << auto2.shape_reason;
-  bool warned = false;
-  for (const auto& w : auto2.warnings) warned = warned || w.find("balloon") != std::string::npos;
+  bool warned = false, skipped = false;
+  for (const auto& w : auto2.warnings) {
+    warned = warned || w.find("balloon") != std::string::npos;
+    skipped = skipped || w.find("piecewise: not faired") != std::string::npos;
+  }
   EXPECT_TRUE(warned);
+  // It balloons well past the limit, so the other method's faired patch is not built.
+  EXPECT_GT(auto2.fair_bulge, 1.5 * FillOptions{}.max_fair_bulge);
+  EXPECT_TRUE(skipped);
   EXPECT_LT(auto2_score.mean_permille, 0.75 * fair2_score.mean_permille);
+}
+
+// Just past the balloon limit the triangulation decides: mech-holes-shark's hole 7 balloons
+// (0.51 hole radii) as the 3D triangulation's faired patch, and the piecewise method's faired
+// patch, which stays under the limit, is built and kept.
+TEST(HoleCasesShape, NearTheBalloonLimitTheOtherMethodIsFaired) {
+  std::string error;
+  const auto c = testing::load_case("mech-holes-shark_real", error);
+  ASSERT_TRUE(c) << error;
+  Mesh mesh = build_mesh(c->holed).mesh;
+  FillSelection one;
+  one.mode = FillSelection::Mode::Ids;
+  one.ids = {7};
+  const FillReport report = fill_holes(mesh, one, {});
+  ASSERT_EQ(report.holes.size(), 1u);
+  const HoleFillReport& r = report.holes[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Fair);
+  EXPECT_EQ(r.method, FillMethod::Piecewise);
+  bool ballooned = false;
+  for (const auto& w : r.warnings) ballooned = ballooned || w.find("balloon") != std::string::npos;
+  EXPECT_TRUE(ballooned);
+  EXPECT_LE(r.fair_bulge, FillOptions{}.max_fair_bulge);
 }
 
 // rocker-arm_xl's 264-vertex hole on a curved part: the first faired patch crosses the
