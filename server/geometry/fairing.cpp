@@ -15,6 +15,10 @@
 namespace touchmend::geometry {
 namespace {
 
+//! Free vertices up to which the fairing system is solved dense (measured: below this the
+//! dense factorisation is faster than the sparse one's ordering and analysis).
+constexpr int kDenseUpTo = 128;
+
 double cotangent(const Vec3& a, const Vec3& b, const Vec3& c) {  // angle at a
   const Vec3 u = b - a, w = c - a;
   const double s = OpenMesh::cross(u, w).norm();
@@ -273,11 +277,23 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
   const Eigen::MatrixXd rhs = -(B * known);
   A.makeCompressed();
   Eigen::MatrixXd x;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> cholesky(A);
-  if (cholesky.info() == Eigen::Success) {
-    x = cholesky.solve(rhs);
+  bool solved = false;
+  if (n_free <= kDenseUpTo) {
+    // A small patch: a dense Cholesky factorisation costs less than the sparse one's ordering
+    // and symbolic analysis (most holes of a scan are this small).
+    const Eigen::LLT<Eigen::MatrixXd> cholesky{Eigen::MatrixXd(A)};
+    if (cholesky.info() == Eigen::Success) {
+      x = cholesky.solve(rhs);
+      solved = x.allFinite();
+    }
+  } else {
+    const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> cholesky(A);
+    if (cholesky.info() == Eigen::Success) {
+      x = cholesky.solve(rhs);
+      solved = cholesky.info() == Eigen::Success && x.allFinite();
+    }
   }
-  if (cholesky.info() != Eigen::Success || !x.allFinite()) {
+  if (!solved) {
     Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
     lu.analyzePattern(A);
     lu.factorize(A);

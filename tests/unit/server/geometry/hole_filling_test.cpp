@@ -75,7 +75,8 @@ TEST(FillHole, HoleOnACylinderIsFairedBackOntoIt) {
   }
   EXPECT_LT(worst, 0.02);
   EXPECT_GE(min_new_angle(run), 15.0);  // DESIGN's goal for refined fills
-  EXPECT_DOUBLE_EQ(r.min_angle_deg, min_new_angle(run));
+  // The report and the metrics module compute the angle by different formulas.
+  EXPECT_NEAR(r.min_angle_deg, min_new_angle(run), 1e-9);
 }
 
 TEST(FillHole, HoleOnASphereIsFairedBackOntoIt) {
