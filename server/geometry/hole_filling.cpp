@@ -525,7 +525,7 @@ double median_dihedral_near(const Mesh& mesh, const Hole& hole, FaceNormals& nor
 ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions& options) {
   ShapeDecision d;
   const Vec3 n = hole.reference_normal.norm() > 0 ? hole.reference_normal : hole.normal;
-  FaceNormals normals(mesh, 32 * hole.loop.size());
+  FaceNormals normals(mesh, 8 * hole.loop.size());  // grows if the rings hold more
   // Smallest cosine between a face around the boundary and the hole's normal.
   double min_cos = 1.0;
   LocalSet seen(8 * hole.loop.size());
