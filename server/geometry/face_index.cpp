@@ -41,8 +41,10 @@ void FaceIndex::build(const Mesh& mesh, std::span<const FaceHandle> faces) {
   faces_.reserve(faces.size());
   boxes_.reserve(faces.size());
   stamp_.reserve(faces.size());
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> entries;
-  entries.reserve(2 * faces.size());
+  // Pass 1: each face's cells (or the unsorted list), counted per bucket; pass 2 files them.
+  std::vector<std::array<Cell, 2>> ranges(faces.size());
+  std::vector<char> gridded(faces.size(), 0);
+  std::size_t entries = 0;
   for (std::size_t i = 0; i < faces.size(); ++i) {
     const std::uint32_t slot = add_slot(faces[i], boxes[i]);
     const Cell lo = cell_of(boxes[i].min()), hi = cell_of(boxes[i].max());
@@ -53,20 +55,33 @@ void FaceIndex::build(const Mesh& mesh, std::span<const FaceHandle> faces) {
       unsorted_.push_back(slot);
       continue;
     }
-    for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
-      for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
-        for (std::int64_t z = lo[2]; z <= hi[2]; ++z) entries.emplace_back(key_of({x, y, z}), slot);
+    ranges[i] = {lo, hi};
+    gridded[i] = 1;
+    entries += static_cast<std::size_t>(cells);
   }
-  std::sort(entries.begin(), entries.end());
-  cell_slots_.reserve(entries.size());
-  for (std::size_t e = 0; e < entries.size(); ++e) {
-    if (e == 0 || entries[e].first != entries[e - 1].first) {
-      cell_keys_.push_back(entries[e].first);
-      cell_starts_.push_back(static_cast<std::uint32_t>(e));
+  std::size_t buckets = 16;
+  bucket_shift_ = 60;
+  while (buckets < entries) {
+    buckets *= 2;
+    --bucket_shift_;
+  }
+  bucket_starts_.assign(buckets + 1, 0);
+  const auto for_each_entry = [&](auto&& file) {
+    for (std::size_t i = 0; i < faces.size(); ++i) {
+      if (!gridded[i]) continue;
+      const auto& [lo, hi] = ranges[i];
+      for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
+        for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
+          for (std::int64_t z = lo[2]; z <= hi[2]; ++z)
+            file(bucket_of(key_of({x, y, z})), static_cast<std::uint32_t>(i));
     }
-    cell_slots_.push_back(entries[e].second);
-  }
-  cell_starts_.push_back(static_cast<std::uint32_t>(entries.size()));
+  };
+  for_each_entry([&](std::size_t b, std::uint32_t) { ++bucket_starts_[b + 1]; });
+  for (std::size_t b = 0; b < buckets; ++b) bucket_starts_[b + 1] += bucket_starts_[b];
+  cell_slots_.resize(entries);
+  std::vector<std::uint32_t> next(bucket_starts_.begin(), bucket_starts_.end() - 1);
+  // Slots are the faces' positions here: build() files every face before any insert().
+  for_each_entry([&](std::size_t b, std::uint32_t slot) { cell_slots_[next[b]++] = slot; });
 }
 
 void FaceIndex::insert(const Mesh& mesh, FaceHandle f) {

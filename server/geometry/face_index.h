@@ -5,12 +5,12 @@
 //! checks of a fill look only at the faces near its hole).
 //!
 //! \details Each face is filed under every grid cell its bounding box overlaps (cells about the
-//! size of a typical face, so most faces go into a few cells); the (cell, face) pairs are kept
-//! sorted by cell in two flat arrays, so building costs one sort and no allocation per cell, and
-//! a query looks up the cells its box overlaps by binary search. A face whose box would cover
-//! more than kMaxCells cells (a huge facet of a coarse CAD mesh) is on a list every query
-//! checks. Deleted faces are skipped; faces added later with insert() are checked by every query
-//! until the index is rebuilt (the fills add a patch at a time and rebuild per hole).
+//! size of a typical face, so most faces go into a few cells); the (cell, face) entries are
+//! kept in two flat arrays grouped by a hash of the cell, so building costs two linear passes
+//! and no allocation per cell, and a query reads the groups of the cells its box overlaps. A face
+//! whose box would cover more than kMaxCells cells (a huge facet of a coarse CAD mesh) is on a list
+//! every query checks. Deleted faces are skipped; faces added later with insert() are checked by
+//! every query until the index is rebuilt (the fills add a patch at a time and rebuild per hole).
 
 #include <algorithm>
 #include <array>
@@ -51,23 +51,20 @@ class FaceIndex {
       visit(f);
     };
     for (const std::uint32_t slot : unsorted_) consider(slot);
-    if (cell_keys_.empty()) return;
+    if (bucket_starts_.empty()) return;
     const Cell lo = cell_of(box.min()), hi = cell_of(box.max());
     const double span = static_cast<double>(hi[0] - lo[0] + 1) *
                         static_cast<double>(hi[1] - lo[1] + 1) *
                         static_cast<double>(hi[2] - lo[2] + 1);
-    if (span > static_cast<double>(cell_keys_.size())) {  // a query larger than the index
-      for (const std::uint32_t slot : cell_slots_) consider(slot);
+    if (span > static_cast<double>(faces_.size())) {  // a query larger than the index
+      for (std::uint32_t slot = 0; slot < faces_.size(); ++slot) consider(slot);
       return;
     }
     for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
       for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
         for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-          const std::uint64_t key = key_of({x, y, z});
-          const auto it = std::lower_bound(cell_keys_.begin(), cell_keys_.end(), key);
-          if (it == cell_keys_.end() || *it != key) continue;
-          const auto c = static_cast<std::size_t>(it - cell_keys_.begin());
-          for (std::uint32_t e = cell_starts_[c]; e < cell_starts_[c + 1]; ++e)
+          const std::size_t b = bucket_of(key_of({x, y, z}));
+          for (std::uint32_t e = bucket_starts_[b]; e < bucket_starts_[b + 1]; ++e)
             consider(cell_slots_[e]);
         }
   }
@@ -101,11 +98,16 @@ class FaceIndex {
   std::vector<int> faces_;
   std::vector<FloatBox> boxes_;
   mutable std::vector<std::uint32_t> stamp_;
-  // The grid: the distinct cell keys in order, where each one's slots start in cell_slots_.
-  std::vector<std::uint64_t> cell_keys_;
-  std::vector<std::uint32_t> cell_starts_;
-  std::vector<std::uint32_t> cell_slots_;
-  std::vector<std::uint32_t> unsorted_;  //!< huge faces, and faces inserted later
+  // The grid: each (cell, face) entry filed under a bucket hashed from the cell, by one counting
+  // sort (no comparison sort); a query reads the buckets of its cells. Other cells that hash to
+  // the same bucket only add candidates, which the box test drops.
+  std::size_t bucket_of(std::uint64_t key) const {
+    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> bucket_shift_);
+  }
+  int bucket_shift_ = 64;
+  std::vector<std::uint32_t> bucket_starts_;  //!< a power of two plus one entries
+  std::vector<std::uint32_t> cell_slots_;     //!< slots, ordered by bucket
+  std::vector<std::uint32_t> unsorted_;       //!< huge faces, and faces inserted later
   mutable std::uint32_t query_ = 0;
 };
 

@@ -242,7 +242,7 @@ class PiecewiseFiller {
       nearest.clear();
       const Vec3& pi = pool_[static_cast<std::size_t>(loop[i])];
       for (std::size_t j = 0; j < n; ++j) {
-        const std::size_t gap = (j + n - i) % n;
+        const std::size_t gap = j >= i ? j - i : j + n - i;  // (j - i) mod n, no division
         if (gap < min_gap || gap > n - min_gap) continue;
         nearest.emplace_back((pool_[static_cast<std::size_t>(loop[j])] - pi).sqrnorm(), j);
       }
