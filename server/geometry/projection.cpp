@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 #include <Eigen/Eigenvalues>
@@ -109,6 +110,84 @@ std::size_t count_self_intersections(std::span<const Point2> polygon) {
 
 namespace {
 
+//! point_in_polygon for many points against one polygon: its edges filed in horizontal slabs,
+//! so a point is tested against the edges whose y-range meets its slab instead of all n (the
+//! fold-over guard asks for every outside point, which made each projectability test O(n^2)).
+//! The same crossing test on the same edges as point_in_polygon, so the same answers.
+class SlabbedPolygon {
+ public:
+  explicit SlabbedPolygon(std::span<const Point2> polygon) : polygon_(polygon) {
+    const std::size_t n = polygon.size();
+    if (n == 0) return;
+    y0_ = y1_ = polygon[0].y();
+    for (const Point2& p : polygon) {
+      y0_ = std::min(y0_, p.y());
+      y1_ = std::max(y1_, p.y());
+    }
+    if (!(y1_ > y0_)) return;  // flat or NaN: no edge can cross a horizontal line
+    slabs_ = std::max<std::size_t>(1, n / 2);
+    scale_ = static_cast<double>(slabs_) / (y1_ - y0_);
+    start_.assign(slabs_ + 1, 0);
+    const auto for_each_filing = [&](auto&& file) {
+      for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+        const auto [lo, hi] = std::minmax(polygon[i].y(), polygon[j].y());
+        for (std::size_t s = slab(lo); s <= slab(hi); ++s) file(s, static_cast<std::uint32_t>(i));
+      }
+    };
+    for_each_filing([&](std::size_t s, std::uint32_t) { ++start_[s + 1]; });
+    for (std::size_t s = 0; s < slabs_; ++s) start_[s + 1] += start_[s];
+    edges_.resize(start_[slabs_]);
+    std::vector<std::uint32_t> next(start_.begin(), start_.end() - 1);
+    for_each_filing([&](std::size_t s, std::uint32_t i) { edges_[next[s]++] = i; });
+  }
+
+  //! Whether some edge lies within \p tolerance of \p p (distance_to_segment <= tolerance):
+  //! only the edges of the slabs within tolerance of p.y can.
+  template <typename Distance>
+  bool near_edge(const Point2& p, double tolerance, Distance&& distance) const {
+    const std::size_t n = polygon_.size();
+    if (slabs_ == 0) {  // no slabs: every edge
+      for (std::size_t i = 0, j = n - 1; i < n; j = i++)
+        if (distance(p, polygon_[i], polygon_[j]) <= tolerance) return true;
+      return false;
+    }
+    if (p.y() + tolerance < y0_ || p.y() - tolerance > y1_) return false;
+    for (std::size_t s = slab(p.y() - tolerance); s <= slab(p.y() + tolerance); ++s)
+      for (std::uint32_t e = start_[s]; e < start_[s + 1]; ++e) {
+        const std::size_t i = edges_[e], j = i == 0 ? n - 1 : i - 1;
+        if (distance(p, polygon_[i], polygon_[j]) <= tolerance) return true;
+      }
+    return false;
+  }
+
+  bool contains(const Point2& p) const {
+    if (slabs_ == 0 || !(p.y() >= y0_ && p.y() < y1_)) return false;  // no edge spans p.y
+    const std::size_t n = polygon_.size();
+    bool inside = false;
+    const std::size_t s = slab(p.y());
+    for (std::uint32_t e = start_[s]; e < start_[s + 1]; ++e) {
+      const std::size_t i = edges_[e], j = i == 0 ? n - 1 : i - 1;
+      const Point2& a = polygon_[i];
+      const Point2& b = polygon_[j];
+      if ((a.y() > p.y()) != (b.y() > p.y()) &&
+          p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+        inside = !inside;
+    }
+    return inside;
+  }
+
+ private:
+  std::size_t slab(double y) const {
+    const double s = std::floor((y - y0_) * scale_);
+    return s <= 0 ? 0 : std::min(static_cast<std::size_t>(s), slabs_ - 1);
+  }
+
+  std::span<const Point2> polygon_;
+  double y0_ = 0, y1_ = 0, scale_ = 0;
+  std::size_t slabs_ = 0;
+  std::vector<std::uint32_t> start_, edges_;
+};
+
 double distance_to_segment(const Point2& p, const Point2& a, const Point2& b) {
   const Point2 ab = b - a;
   const double len2 = ab.squaredNorm();
@@ -142,13 +221,11 @@ ProjectabilityReport test_projectable(std::span<const Vec3> loop,
   }
   // Fold-over guard (ALGORITHMS.md §1.4 (3)): a surrounding triangle whose third vertex
   // projects well inside the hole polygon means the surface folds back over the plane.
+  const SlabbedPolygon slabbed(polygon);
   for (const Vec3& q3 : outside_points) {
     const Point2 q = frame.project(q3);
-    if (!point_in_polygon(polygon, q)) continue;
-    double d = std::numeric_limits<double>::infinity();
-    for (std::size_t i = 0; i < polygon.size(); ++i)
-      d = std::min(d, distance_to_segment(q, polygon[i], polygon[(i + 1) % polygon.size()]));
-    if (d > tolerance) ++r.fold_overs;
+    if (slabbed.contains(q) && !slabbed.near_edge(q, tolerance, distance_to_segment))
+      ++r.fold_overs;
   }
   if (r.fold_overs > 0) {
     r.why_not = "surrounding surface folds over the hole in projection";
