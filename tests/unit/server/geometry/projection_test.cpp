@@ -1,5 +1,6 @@
 #include "server/geometry/projection.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -52,6 +53,38 @@ TEST(Projectability, ClockwiseFoldedAndSimpleLoops) {
   // Neighbours on the boundary line (a wall) are fine.
   const std::vector<Vec3> wall = {{0.5, 0.0, -1}};
   EXPECT_TRUE(test_projectable(ccw, wall, up, 0.05).projectable);
+}
+
+// The fold-over guard's slabs must count exactly what testing every point against every edge
+// counts: a star of 64 vertices, points all over and around it, some near its edges.
+TEST(Projectability, FoldOversCountedAsByEveryEdge) {
+  std::vector<Vec3> star;
+  for (int i = 0; i < 64; ++i) {
+    const double a = 2 * std::numbers::pi * i / 64, r = i % 2 == 0 ? 1.0 : 0.6;
+    star.emplace_back(r * std::cos(a), r * std::sin(a), 0);
+  }
+  std::vector<Vec3> points;
+  for (int x = 0; x < 41; ++x)
+    for (int y = 0; y < 41; ++y) points.emplace_back(-1.2 + 0.06 * x, -1.2 + 0.06 * y, 1);
+  const double tolerance = 0.05;
+  const ReferenceFrame up = ReferenceFrame::from_normal(Vec3(0, 0, 1), Vec3(0, 0, 0));
+  std::vector<Point2> polygon;
+  for (const Vec3& p : star) polygon.push_back(up.project(p));
+  std::size_t expected = 0;
+  for (const Vec3& q3 : points) {
+    const Point2 q = up.project(q3);
+    if (!point_in_polygon(polygon, q)) continue;
+    double d = HUGE_VAL;
+    for (std::size_t i = 0; i < polygon.size(); ++i) {
+      const Point2 a = polygon[i], b = polygon[(i + 1) % polygon.size()];
+      const double t = std::clamp((q - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+      d = std::min(d, (a + t * (b - a) - q).norm());
+    }
+    expected += d > tolerance ? 1 : 0;
+  }
+  ASSERT_GT(expected, 50u);
+  ASSERT_LT(expected, points.size() / 2);
+  EXPECT_EQ(test_projectable(star, points, up, tolerance).fold_overs, expected);
 }
 
 TEST(Projectability, PcaNormalOfATiltedPlane) {
