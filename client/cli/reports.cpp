@@ -73,6 +73,9 @@ nlohmann::json to_json(const geometry::HoleFillReport& r) {
   j["reference_plane"] = r.reference_plane;
   j["shape"] = geometry::to_string(r.shape);
   j["shape_reason"] = r.shape_reason;
+  if (!r.fair_base.empty()) j["fair_base"] = r.fair_base;
+  // How far the last faired try rose off the spanning triangulation (why a hole stayed flat).
+  if (r.fair_bulge > 0) j["fair_bulge_hole_radii"] = r.fair_bulge;
   j["pieces"] = r.pieces;
   if (!r.creases.empty()) {
     j["creases"] = r.creases;

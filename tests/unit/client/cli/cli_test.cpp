@@ -91,6 +91,20 @@ TEST_F(Cli, FillSharpAutoRetainsTheCreases) {
             kExitUsage);
 }
 
+// hand_sml's hole 51 straddles the rim of the flat wrist cap: its faired patch balloons, the
+// JSON says how far and why the hole was filled flat.
+TEST_F(Cli, FillJsonTellsHowFarAFairedTryBallooned) {
+  const std::string hand = testing::shared_data_dir() + "/cases/hand_sml/holed.off";
+  const CliRun r = run("fill " + hand + " -o " + path("hand.off") + " --hole 51 --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["holes"].size(), 1u);
+  const auto& h = j["holes"][0];
+  EXPECT_EQ(h["shape"], "flat") << h.dump();
+  EXPECT_GT(h["fair_bulge_hole_radii"].get<double>(), 0.5) << h.dump();
+  EXPECT_NE(h["warnings"].dump().find("balloon"), std::string::npos) << h.dump();
+}
+
 TEST_F(Cli, SharpenRetainsAnEdgeFromFourPoints) {
   const std::string fandisk = testing::shared_data_dir() + "/cases/fandisk_sharp/holed.off";
   // Hole 1444 lies on the straight crease x = 4.828, z = 0 (along y).
