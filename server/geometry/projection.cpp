@@ -27,16 +27,22 @@ ReferenceFrame ReferenceFrame::from_normal(const Vec3& normal, const Vec3& origi
   return f;
 }
 
+namespace {
+
+//! Whether edge (a, b) crosses the ray from \p p towards +x (half-open in y, so a vertex on the
+//! ray counts once): the even-odd test's step.
+bool crosses_ray(const Point2& a, const Point2& b, const Point2& p) {
+  return (a.y() > p.y()) != (b.y() > p.y()) &&
+         p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x();
+}
+
+}  // namespace
+
 bool point_in_polygon(std::span<const Point2> polygon, const Point2& p) {
   bool inside = false;
   const std::size_t n = polygon.size();
-  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
-    const Point2& a = polygon[i];
-    const Point2& b = polygon[j];
-    if ((a.y() > p.y()) != (b.y() > p.y()) &&
-        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
-      inside = !inside;
-  }
+  for (std::size_t i = 0, j = n - 1; i < n; j = i++)
+    if (crosses_ray(polygon[i], polygon[j], p)) inside = !inside;
   return inside;
 }
 
@@ -167,11 +173,7 @@ class SlabbedPolygon {
     const std::size_t s = slab(p.y());
     for (std::uint32_t e = start_[s]; e < start_[s + 1]; ++e) {
       const std::size_t i = edges_[e], j = i == 0 ? n - 1 : i - 1;
-      const Point2& a = polygon_[i];
-      const Point2& b = polygon_[j];
-      if ((a.y() > p.y()) != (b.y() > p.y()) &&
-          p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
-        inside = !inside;
+      if (crosses_ray(polygon_[i], polygon_[j], p)) inside = !inside;
     }
     return inside;
   }
