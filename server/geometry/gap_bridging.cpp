@@ -18,6 +18,16 @@
 namespace touchmend::geometry {
 namespace {
 
+//! \p options with a search reach: the caller's, or one made for \p mesh into \p own (which
+//! must outlive the returned options).
+StitchOptions with_reach(const Mesh& mesh, StitchOptions options, std::optional<SearchReach>& own) {
+  if (!options.reach) {
+    own = make_search_reach(mesh);
+    options.reach = &*own;
+  }
+  return options;
+}
+
 StitchResult refuse(std::string why) {
   StitchResult r;
   r.reason = std::move(why);
@@ -338,13 +348,11 @@ std::vector<Gap> find_gaps(const Mesh& mesh, const std::vector<Hole>& holes,
 
 ZipResult zip_gap(Mesh& mesh, const Gap& gap, const StitchOptions& stitch_options) {
   ZipResult result;
-  StitchOptions options = stitch_options;
   // One reach for the whole zipper (each stitch is filed in it as it is added).
   std::optional<SearchReach> own_reach;
-  if (options.check_intersections && !options.reach) {
-    own_reach = make_search_reach(mesh);
-    options.reach = &*own_reach;
-  }
+  const StitchOptions options = stitch_options.check_intersections
+                                    ? with_reach(mesh, stitch_options, own_reach)
+                                    : stitch_options;
   const auto fail = [&](std::string why) {
     for (const FaceHandle f : result.faces)
       if (!mesh.status(f).deleted()) mesh.delete_face(f, false);
@@ -413,12 +421,8 @@ DetectedGapBridge bridge_detected_gap(Mesh& mesh, const Gap& gap, const FillOpti
                                       const StitchOptions& stitch_options) {
   DetectedGapBridge out;
   // One reach for the zipper and the fills after it.
-  StitchOptions options = stitch_options;
   std::optional<SearchReach> own_reach;
-  if (!options.reach) {
-    own_reach = make_search_reach(mesh);
-    options.reach = &*own_reach;
-  }
+  const StitchOptions options = with_reach(mesh, stitch_options, own_reach);
   out.zip = zip_gap(mesh, gap, options);
   if (!out.zip.ok || gap.cyclic) return out;
   std::set<int> zipped;
@@ -452,12 +456,8 @@ DetectedGapsBridge bridge_detected_gaps(Mesh& mesh, const std::vector<const Gap*
                                         const FillOptions& fill,
                                         const StitchOptions& stitch_options) {
   DetectedGapsBridge out;
-  StitchOptions options = stitch_options;
   std::optional<SearchReach> own_reach;
-  if (!options.reach) {
-    own_reach = make_search_reach(mesh);
-    options.reach = &*own_reach;
-  }
+  const StitchOptions options = with_reach(mesh, stitch_options, own_reach);
   std::set<int> zipped;
   double widest = 0;
   for (const Gap* gap : gaps) {
