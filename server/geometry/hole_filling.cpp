@@ -944,7 +944,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   // mesh, its retry with collapses (below) comes right after it, before the other methods'
   // faired patches: the retry reuses the O(n^3) triangulation, the next method (piecewise)
   // builds its own, and on the shared cases that one crossed too (rocker-arm_xl: the same
-  // fill in 49 ms instead of 95). After a planar patch that crossed, the 3D triangulation's
+  // fill in 47 ms instead of 95). After a planar patch that crossed, the 3D triangulation's
   // faired patch comes first (rocker-arm_sml #2: the planar retry crosses again, the 3D
   // triangulation's faired patch does not).
   bool first_whole_hole_fair = true;
@@ -962,11 +962,11 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   // When every faired try failed and one crossed the mesh, the first that did is faired once
   // more with collapses in its first mending pass (once per hole: an earlier retry above
   // counts): fairing a patch without the vertices crowded against its rim keeps it off the
-  // surrounding surface (rocker-arm_xl: faired,
-  // 19.45‰ mean instead of the ear-clipped flat fill's 29.4‰, every anchor 21.5‰ or more, in a
-  // third of the time). Not for every faired patch: collapses before fairing coarsen it
-  // (measured: three holes farther from the ground truth). One retry, so a hole whose every
-  // faired patch crosses (couplingdown_sharp #1) pays for one more try, not one per method.
+  // surrounding surface (rocker-arm_xl: faired, 19.45‰ mean instead of the ear-clipped flat
+  // fill's 29.4‰, every anchor 21.5‰ or more, in a third of the time). Not for every faired patch:
+  // collapses before fairing coarsen it (measured: three holes farther from the ground truth). One
+  // retry, so a hole whose every faired patch crosses (couplingdown_sharp #1) pays for one more
+  // try, not one per method.
   attempts.push_back({kFirstCrossed, true, false, true});
   for (std::size_t m = 0; m < methods.size(); ++m)
     if (!last_resort(m) && wants_fair(methods[m]) && methods[m] != FillMethod::CreaseSplit)
