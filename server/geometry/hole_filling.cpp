@@ -935,6 +935,11 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   const auto last_resort = [&](std::size_t m) {
     return methods[m] == FillMethod::EarClipping && options.methods.empty();
   };
+  // A faired patch over the whole hole (a crease split's regions are faired with the curve
+  // held, which the balloon and retry rules below do not conclude from).
+  const auto whole_hole_fairing = [&](std::size_t m, bool fair) {
+    return fair && methods[m] != FillMethod::CreaseSplit;
+  };
   // The crease split is the exception: its flat fallback comes right after its faired try,
   // since the point of splitting is to keep the crease, which another method's faired patch
   // rounds away (couplingdown_sharp #2: a balloon when faired; flat split 2.66‰ mean and 11.3‰
@@ -953,7 +958,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     attempts.push_back({m, wants_fair(methods[m]), false});
     if (methods[m] == FillMethod::CreaseSplit && wants_fair(methods[m]))
       attempts.push_back({m, false, true});
-    if (first_whole_hole_fair && wants_fair(methods[m]) && methods[m] != FillMethod::CreaseSplit) {
+    if (first_whole_hole_fair && whole_hole_fairing(m, wants_fair(methods[m]))) {
       if (methods[m] == FillMethod::MinimumWeight3d)
         attempts.push_back({kFirstCrossed, true, false, true});
       first_whole_hole_fair = false;
@@ -969,7 +974,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   // try, not one per method.
   attempts.push_back({kFirstCrossed, true, false, true});
   for (std::size_t m = 0; m < methods.size(); ++m)
-    if (!last_resort(m) && wants_fair(methods[m]) && methods[m] != FillMethod::CreaseSplit)
+    if (!last_resort(m) && whole_hole_fairing(m, wants_fair(methods[m])))
       attempts.push_back({m, false, true});
   for (std::size_t m = 0; m < methods.size(); ++m)
     if (last_resort(m)) {
@@ -982,13 +987,9 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   // the other methods' faired patches of the whole hole rise as far (hand #2: 0.85 and 1.68
   // hole radii), so they are not built. Near the limit the triangulation decides
   // (mech-holes-shark #7: 0.51 for the 3D triangulation, under 0.5 for the piecewise one), so
-  // the others are tried. A crease split's regions are faired with the curve held: not
-  // concluded from.
+  // the others are tried.
   constexpr double kClearBalloon = 1.5;  // times FillOptions::max_fair_bulge
   double balloon_bulge = 0;
-  const auto whole_hole_fairing = [&](std::size_t m, bool fair) {
-    return fair && methods[m] != FillMethod::CreaseSplit;
-  };
   double last_bulge = 0;
   bool retried = false;
   for (const Attempt& step : attempts) {

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_set>
 
 #include "server/geometry/bvh.h"
 #include "server/geometry/intersection.h"
