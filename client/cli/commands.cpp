@@ -193,7 +193,9 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
     err << "error: " << args.file << ": the mesh has no holes\n";
     return kExitBadInput;
   }
-  mesh.garbage_collection();  // compact deleted elements of failed attempts before writing
+  // The writer skips the deleted elements of failed attempts and keeps the others' order (the
+  // server's documents keep creation order too, so a fill gives the same file either way;
+  // OpenMesh's garbage collection would move the last elements into the gaps).
   geometry::WriteOptions wo;
   wo.binary = args.binary;
   const geometry::WriteResult written = geometry::write_mesh_file(mesh, args.output, wo);

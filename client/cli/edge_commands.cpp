@@ -18,10 +18,9 @@ namespace touchmend::cli {
 namespace {
 
 //! Writes atomically; prints the error and returns false on failure.
-bool write_result(geometry::Mesh& mesh, const std::string& path, bool binary, std::ostream& err,
-                  geometry::WriteResult& written) {
-  mesh.garbage_collection();
-  geometry::WriteOptions wo;
+bool write_result(const geometry::Mesh& mesh, const std::string& path, bool binary,
+                  std::ostream& err, geometry::WriteResult& written) {
+  geometry::WriteOptions wo;  // the writer skips deleted elements, in order
   wo.binary = binary;
   written = geometry::write_mesh_file(mesh, path, wo);
   if (!written.ok) {

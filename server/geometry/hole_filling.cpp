@@ -708,6 +708,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     // A flat patch's positions are final: moving a vertex straight to where its worst triangle
     // is equilateral is safe there (in its plane); before fairing, fairing places it anyway.
     quality.apex_moves = keep_surface;
+    quality.insert_circumcentres = keep_surface;
     // A flat patch standing in for a refused faired one is a guess at a curved surface, not a
     // CAD face to keep exactly: its folds may be mended like a faired patch's.
     if (keep_surface && fallback) {

@@ -68,6 +68,8 @@ class Patch {
         flip_turn_cos_(std::cos(options.max_turn_deg * kRadian)),
         cap_cos_(std::cos(options.max_bisected_angle_deg * kRadian)),
         goal_(std::sin(std::min(options.target_min_angle_deg, 60.0) * kRadian)),
+        encroach_cos_(
+            std::cos((180.0 - 2.0 * std::min(options.target_min_angle_deg, 60.0)) * kRadian)),
         position_(2 * faces.size() + 16) {
     for (std::size_t i = 0; i < faces_.size(); ++i)
       position_[faces_[i].idx()] = static_cast<std::uint32_t>(i);
@@ -203,20 +205,27 @@ class Patch {
     const double shortest = shortest_split_;
     std::size_t splits = 0;
     for (const FaceHandle f : bad) {
+      if (mesh_.status(f).deleted()) continue;  // an undone insertion's collapse
       const auto p = face_points(mesh_, f);
       if (triangle_shape(p[0], p[1], p[2]) >= goal_) continue;
-      if (largest_angle_cos(p[0], p[1], p[2]) < cap_cos_) continue;
+      if (largest_angle_cos(p[0], p[1], p[2]) < cap_cos_) {
+        if (options_.insert_circumcentres) splits += insert_circumcentre(f) ? 1 : 0;
+        continue;
+      }
+      if (!options_.bisect) continue;
+      // The longest side, or when that is the rim (which cannot be split) the longest interior
+      // one: its midpoint is then smoothed away from the needle's small corner.
       HalfedgeHandle longest;
       double length = 0;
       for (const HalfedgeHandle h : mesh_.fh_range(f)) {
         const double l = mesh_.calc_edge_length(h);
-        if (l > length) {
+        if (l > length && interior(mesh_.edge_handle(h))) {
           length = l;
           longest = h;
         }
       }
+      if (!longest.is_valid() || length < shortest) continue;
       const EdgeHandle e = mesh_.edge_handle(longest);
-      if (!interior(e) || length < shortest) continue;
       const Vec3& a = mesh_.point(mesh_.from_vertex_handle(longest));
       const Vec3& b = mesh_.point(mesh_.to_vertex_handle(longest));
       const Vec3& c = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(longest)));
@@ -257,6 +266,169 @@ class Patch {
   }
 
   double goal() const { return goal_; }
+
+  //! A cap (one angle over max_bisected_angle_deg) that flips and moves left below the goal:
+  //! Ruppert's Delaunay refinement step. Its circumcentre is inserted and the edges around the
+  //! new vertex flipped; bisecting the cap's long edge cannot mend it when its small angles sit
+  //! at vertices fixed on the rim (a fan over an arc of short rim edges keeps its angles at the
+  //! fan's centre). The circumcentre is found by a walk from the cap across the patch, each
+  //! triangle's plane in turn. A walk that must cross a fold of a flat patch (a segment the
+  //! surface bends along) splits that fold at its midpoint instead, as Ruppert splits an
+  //! encroached segment (the midpoint lies on both planes); one that must cross the rim (which
+  //! cannot be split: it is the mesh's) or ends next to a vertex inserts nothing.
+  bool insert_circumcentre(FaceHandle f) {
+    const auto p = face_points(mesh_, f);
+    const Vec3 u = p[1] - p[0], w = p[2] - p[0];
+    const Vec3 n = OpenMesh::cross(u, w);
+    const double n2 = n.sqrnorm();
+    if (!(n2 > 0)) return false;
+    const Vec3 centre =
+        p[0] +
+        (OpenMesh::cross(n, u) * w.sqrnorm() + OpenMesh::cross(w, n) * u.sqrnorm()) / (2 * n2);
+    constexpr double kNearSide = 0.02;  // barycentric: on a side
+    const double before = triangle_shape(p[0], p[1], p[2]);
+    const double shortest_side =
+        std::sqrt(std::min({u.sqrnorm(), w.sqrnorm(), (p[2] - p[1]).sqrnorm()}));
+    FaceHandle g = f;
+    for (int step = 0; step < 16; ++step) {
+      const auto q = face_points(mesh_, g);
+      const Vec3 gn = OpenMesh::cross(q[1] - q[0], q[2] - q[0]);
+      const double area2 = gn.sqrnorm();
+      if (!(area2 > 0)) return false;
+      const Vec3 point = centre - (OpenMesh::dot(centre - q[0], gn) / area2) * gn;
+      // lambda[k]: weight of corner k; its side is the halfedge from corner k+1 to k+2.
+      std::array<double, 3> lambda;
+      std::array<HalfedgeHandle, 3> side;
+      std::array<VertexHandle, 3> corners;
+      std::size_t k = 0;
+      for (const VertexHandle v : mesh_.fv_range(g)) corners[k++] = v;
+      for (const HalfedgeHandle h : mesh_.fh_range(g)) {
+        const VertexHandle opposite = mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h));
+        side[opposite == corners[0] ? 0 : opposite == corners[1] ? 1 : 2] = h;
+      }
+      for (std::size_t c = 0; c < 3; ++c)
+        lambda[c] =
+            OpenMesh::dot(OpenMesh::cross(q[(c + 1) % 3] - point, q[(c + 2) % 3] - point), gn) /
+            area2;
+      const std::size_t exit =
+          static_cast<std::size_t>(std::min_element(lambda.begin(), lambda.end()) - lambda.begin());
+      if (lambda[exit] < -kNearSide) {
+        const EdgeHandle e = mesh_.edge_handle(side[exit]);
+        if (!interior(e)) return false;  // the rim is encroached
+        const FaceHandle next = mesh_.face_handle(mesh_.opposite_halfedge_handle(side[exit]));
+        if (options_.keep_surface) {
+          const Vec3 nn = mesh_.calc_face_normal(next);
+          if (OpenMesh::dot(Vec3(gn).normalize(), nn) < fold_cos_) {
+            const Vec3& a = mesh_.point(mesh_.from_vertex_handle(side[exit]));
+            const Vec3& b = mesh_.point(mesh_.to_vertex_handle(side[exit]));
+            // Ruppert's insertion radius: the midpoint may not come closer to the fold's ends
+            // than the cap's shortest side, or splits cascade towards a corner of the rim.
+            if (0.5 * (a - b).norm() < shortest_side) return false;
+            const VertexHandle end = mesh_.from_vertex_handle(side[exit]);
+            return insert_vertex(mesh_.split(e, 0.5 * (a + b)), f, before, end);
+          }
+        }
+        g = next;
+        continue;
+      }
+      int near = 0;
+      for (const double l : lambda) near += l < kNearSide ? 1 : 0;
+      if (near > 1) return false;  // next to a vertex
+      if (encroaches_rim(g, point)) return false;
+      if (near == 0) return insert_vertex(mesh_.split(g, point), f, before, corners[0]);
+      // On a side: split that edge (a rim side cannot be).
+      const std::size_t c =
+          static_cast<std::size_t>(std::min_element(lambda.begin(), lambda.end()) - lambda.begin());
+      const EdgeHandle e = mesh_.edge_handle(side[c]);
+      if (!interior(e)) return false;
+      const Vec3& a = mesh_.point(mesh_.from_vertex_handle(side[c]));
+      const Vec3& b = mesh_.point(mesh_.to_vertex_handle(side[c]));
+      const double t = std::clamp(OpenMesh::dot(point - a, b - a) / (b - a).sqrnorm(), 0.1, 0.9);
+      const VertexHandle end = mesh_.from_vertex_handle(side[c]);
+      return insert_vertex(mesh_.split(e, a + t * (b - a)), f, before, end);
+    }
+    return false;
+  }
+
+  //! Whether \p point, about to be inserted in \p g, sees a rim edge of a triangle around g at
+  //! so wide an angle that the triangle it would make with that edge is below the goal
+  //! whatever its other angles (Ruppert rejects a point in a segment's diametral circle and
+  //! splits the segment; the rim cannot be split).
+  bool encroaches_rim(FaceHandle g, const Vec3& point) const {
+    for (const VertexHandle c : mesh_.fv_range(g))
+      for (const FaceHandle h : mesh_.vf_range(c)) {
+        if (!set_.contains(h)) continue;
+        for (const HalfedgeHandle e : mesh_.fh_range(h)) {
+          if (interior(mesh_.edge_handle(e))) continue;
+          const Vec3 a = mesh_.point(mesh_.from_vertex_handle(e)) - point;
+          const Vec3 b = mesh_.point(mesh_.to_vertex_handle(e)) - point;
+          if (OpenMesh::dot(a, b) < encroach_cos_ * a.norm() * b.norm()) return true;
+        }
+      }
+    return false;
+  }
+
+  //! Files a vertex a split just made (and its faces) in the patch and flips around it. Kept
+  //! when that mended \p cap: the cap is gone and every triangle around the new vertex beats
+  //! it. Otherwise undone: the flips in reverse, then the vertex collapsed into \p end (a
+  //! corner of the split triangle, an end of the split edge), which restores the triangles the
+  //! split replaced.
+  bool insert_vertex(VertexHandle v, FaceHandle cap, double before, VertexHandle end) {
+    for (const FaceHandle nf : mesh_.vf_range(v))
+      if (!set_.contains(nf)) {
+        set_.insert(nf);
+        position_[nf.idx()] = static_cast<std::uint32_t>(faces_.size());
+        faces_.push_back(nf);
+      }
+    std::vector<EdgeHandle> flipped;
+    flip_around(v, flipped);
+    double after = mesh_.status(cap).deleted() ? 1.0 : face_shape(mesh_, cap);
+    for (const FaceHandle nf : mesh_.vf_range(v)) after = std::min(after, face_shape(mesh_, nf));
+    if (after > before + 1e-9) {
+      new_vertices_.push_back(v);
+      for (const FaceHandle nf : mesh_.vf_range(v)) touched_.push_back(nf);
+      return true;
+    }
+    for (auto e = flipped.rbegin(); e != flipped.rend(); ++e) mesh_.flip(*e);
+    // The restored triangles may come back under other handles: they are looked at again.
+    std::vector<VertexHandle> link;
+    for (const VertexHandle x : mesh_.vv_range(v)) link.push_back(x);
+    HalfedgeHandle back;
+    for (const HalfedgeHandle h : mesh_.voh_range(v))
+      if (mesh_.to_vertex_handle(h) == end) back = h;
+    if (!back.is_valid() || !mesh_.is_collapse_ok(back)) {  // not expected: keep the vertex
+      new_vertices_.push_back(v);
+      for (const FaceHandle nf : mesh_.vf_range(v)) touched_.push_back(nf);
+      return true;
+    }
+    mesh_.collapse(back);
+    for (const VertexHandle x : link)
+      for (const FaceHandle nf : mesh_.vf_range(x))
+        if (set_.contains(nf)) touched_.push_back(nf);
+    drop_deleted();
+    return false;
+  }
+
+  //! Lawson's flips around a new vertex: its link edges, and those a flip exposes.
+  void flip_around(VertexHandle v, std::vector<EdgeHandle>& flipped) {
+    std::deque<EdgeHandle> queue;
+    for (const HalfedgeHandle h : mesh_.voh_range(v))
+      queue.push_back(mesh_.edge_handle(mesh_.next_halfedge_handle(h)));
+    std::size_t budget = 64;
+    while (!queue.empty() && budget-- > 0) {
+      const EdgeHandle e = queue.front();
+      queue.pop_front();
+      if (!try_flip(e)) continue;
+      flipped.push_back(e);
+      for (int side = 0; side < 2; ++side) {
+        const HalfedgeHandle h = mesh_.halfedge_handle(e, side);
+        for (const HalfedgeHandle g :
+             {mesh_.next_halfedge_handle(h), mesh_.prev_halfedge_handle(h)})
+          if (mesh_.from_vertex_handle(g) != v && mesh_.to_vertex_handle(g) != v)
+            queue.push_back(mesh_.edge_handle(g));
+      }
+    }
+  }
 
  private:
   //! The smallest angle (as triangle_shape) of the triangles around the from-vertex of \p h
@@ -436,7 +608,8 @@ class Patch {
   double turn_cos_;
   double flip_turn_cos_;
   double cap_cos_;
-  double goal_;  //!< sin of the target minimum angle
+  double goal_;          //!< sin of the target minimum angle
+  double encroach_cos_;  //!< cos of the widest angle a rim edge may be seen at (encroaches_rim)
   double shortest_split_ = -1;
   std::vector<FaceHandle> touched_;   //!< faces changed since the bad faces were last found
   LocalMap<std::uint32_t> position_;  //!< face index -> its place in faces_
@@ -471,7 +644,8 @@ PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& pa
       bad = patch.bad_faces_after(bad);
       if (bad.empty()) break;
     }
-    const std::size_t splits = options.bisect ? patch.split_pass(bad) : 0;
+    const std::size_t splits =
+        options.bisect || options.insert_circumcentres ? patch.split_pass(bad) : 0;
     bad = patch.bad_faces_after(bad);
     report.splits += splits;
     if (splits == 0) break;  // nothing left to bisect

@@ -15,6 +15,11 @@
 //!  - longest-edge bisection (Rivara) of the triangles still bad, when that edge is interior:
 //!    the midpoint of a fold between two planes lies on both, so even a flat patch keeps its
 //!    surface exactly;
+//!  - optionally, for caps (an obtuse angle, which bisection would only halve), insertion of
+//!    the circumcentre with Lawson flips around it, Ruppert's Delaunay refinement step (J.
+//!    Ruppert, "A Delaunay refinement algorithm for quality 2-dimensional mesh generation",
+//!    1995): the rim cannot be split, so a circumcentre past it or encroaching on it is not
+//!    inserted, and a fold of a flat patch is split at its midpoint instead;
 //!  - optionally, collapse of a free vertex of a triangle still bad into another corner of it,
 //!    when that raises the smallest angle around it (a vertex fairing pulled against a fixed
 //!    edge: every position in its tangent plane leaves an obtuse cap, and flips are limited).
@@ -47,7 +52,14 @@ struct PatchQualityOptions {
   //! Bisection is for needles; a cap (one angle above this) is mended by flipping its long
   //! edge instead, since bisecting it puts the new vertex next to the obtuse one.
   double max_bisected_angle_deg = 120.0;
-  bool bisect = true;  //!< false: no bisections (the vertex count does not grow)
+  bool bisect = true;  //!< false: no bisections
+  //! Caps (an angle over max_bisected_angle_deg) that flips and moves leave below the goal:
+  //! insert their circumcentres and flip around them (Ruppert's Delaunay refinement step;
+  //! each insertion is undone unless it mends the cap). Off by default; the fill asks for it on
+  //! flat patches. Not before fairing (fairing moves the point again: measured, rocker-arm_xl's
+  //! faired patch then crossed the mesh), nor on a faired surface (the point would lie on a chord,
+  //! off it).
+  bool insert_circumcentres = false;
   //! Collapse a free vertex of a triangle that flips and moves left below the goal into
   //! another corner of it (removes a vertex fairing pulled next to a fixed edge). Coarsens the
   //! patch, so off unless asked for (the fill asks for it on the final faired surface).

@@ -109,8 +109,7 @@ BatchFillResult batch_fill(const std::string& input, const v1::JobSpec& spec,
   }
   result.report.set_holes_found(static_cast<std::uint32_t>(report.holes_found));
   for (const auto& h : report.holes) to_proto(h, *result.report.add_holes());
-  mesh.garbage_collection();
-  geometry::WriteOptions write_options;
+  geometry::WriteOptions write_options;  // the writer skips deleted elements, in order
   write_options.binary = spec.binary_output();
   const geometry::WriteResult written =
       geometry::serialize_mesh(mesh, format, write_options, result.output);

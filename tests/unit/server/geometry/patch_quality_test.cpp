@@ -21,13 +21,15 @@ struct FannedHole {
   std::vector<VertexHandle> loop;
 };
 
-FannedHole fanned_hole(const std::function<double(double, double)>& height = {}) {
-  MeshSoup s = testing::annulus(24, 3.0, 3, 1.0);
+FannedHole fanned_hole(const std::function<double(double, double)>& height = {}, int edges = 24) {
+  MeshSoup s = testing::annulus(edges, 3.0, 3, 1.0);
   if (height)
     for (Vec3& p : s.points) p[2] = height(p[0], p[1]);
   FannedHole out{build_mesh(s).mesh, {}, {}};
   for (const Hole& h : find_holes(out.mesh).holes)
-    if (h.loop.size() == 24) out.loop = h.loop;
+    if (const Vec3 p = out.mesh.point(h.loop[0]);
+        h.loop.size() == static_cast<std::size_t>(edges) && std::hypot(p[0], p[1]) < 4.0)
+      out.loop = h.loop;  // the hole (radius 3), not the outer border (radius 6)
   // The loop runs along the boundary halfedges with the hole on their left: faces
   // (v0, v[i], v[i+1]) take those halfedges and close it with the mesh's orientation.
   const std::size_t n = out.loop.size();
@@ -56,6 +58,41 @@ TEST(PatchQuality, FlatFanBecomesWellShapedAndStaysInItsPlane) {
     for (const VertexHandle v : h.mesh.fv_range(f)) EXPECT_EQ(h.mesh.point(v)[2], 0.0);
   EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
   EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);  // only the grid's border is open
+}
+
+TEST(PatchQuality, CircumcentresMendEarsNoFlipCan) {
+  // A regular 14-gon: every triangulation of its own vertices has an ear (three consecutive rim
+  // vertices), whose smallest angle is (180° - 154.3°) / 2 = 12.9°, so flips and moves alone
+  // stop there. Inserting the ears' circumcentres (the polygon's centre) gets past 15°.
+  for (const bool insert : {false, true}) {
+    FannedHole h = fanned_hole({}, 14);
+    ASSERT_EQ(h.loop.size(), 14u);
+    std::vector<VertexHandle> added;
+    PatchQualityOptions options;
+    options.keep_surface = true;
+    options.bisect = false;
+    options.insert_circumcentres = insert;
+    const PatchQualityReport r = improve_patch_quality(h.mesh, h.patch, added, options);
+    if (!insert) {
+      EXPECT_LT(r.min_angle_after_deg, 12.9);
+      EXPECT_EQ(r.splits, 0u);
+      EXPECT_TRUE(added.empty());
+      continue;
+    }
+    EXPECT_GE(r.min_angle_after_deg, 15.0);
+    EXPECT_NEAR(r.min_angle_after_deg, min_angle_deg(h.mesh, h.patch), 1e-9);
+    EXPECT_GT(r.splits, 0u);
+    EXPECT_EQ(added.size(), r.splits);
+    for (const FaceHandle f : h.patch) {
+      ASSERT_FALSE(h.mesh.status(f).deleted());
+      for (const VertexHandle v : h.mesh.fv_range(f)) {
+        EXPECT_EQ(h.mesh.point(v)[2], 0.0);              // in the plane
+        EXPECT_LE(h.mesh.point(v).norm(), 3.0 + 1e-12);  // in the hole
+      }
+    }
+    EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
+    EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);
+  }
 }
 
 TEST(PatchQuality, FlatPatchNeverFlipsAcrossACrease) {
@@ -92,9 +129,11 @@ TEST(PatchQuality, CurvedPatchKeepsItsTurnLimit) {
   const PatchQualityReport r = improve_patch_quality(h.mesh, h.patch, added, {});
   EXPECT_GT(r.min_angle_after_deg, r.min_angle_before_deg);
   EXPECT_GE(r.min_angle_after_deg, 15.0);
+  const double facing = h.mesh.calc_face_normal(FaceHandle(0))[2];  // the annulus' side
+  ASSERT_GT(std::abs(facing), 0.9);
   for (const FaceHandle f : h.patch) {
     const Vec3 n = h.mesh.calc_face_normal(f);
-    EXPECT_GT(n[2], 0.5);  // still facing up
+    EXPECT_GT(n[2] * facing, 0.5);  // still facing the annulus' way
   }
   EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
 }
