@@ -179,6 +179,7 @@ int main(int argc, char** argv) {
               faster = 0, timed = 0;
   std::size_t self_intersections = 0, manifold_failures = 0;
   double worst_min_angle = 180;
+  std::size_t min_angle_met = 0;  // holes whose new faces' smallest angle is >= 15 deg (DESIGN)
   std::vector<double> ratios;
   for (const Workload& w : workloads) {
     // Ours, repeated for timing; the last run is scored.
@@ -238,6 +239,7 @@ int main(int argc, char** argv) {
       const auto tris = geo::face_triangles(built.mesh, h.new_faces);
       const auto quality = geo::triangle_quality(tris);
       worst_min_angle = std::min(worst_min_angle, quality.min_angle_deg);
+      min_angle_met += h.filled && quality.min_angle_deg >= 15.0 ? 1 : 0;
       const std::size_t si = geo::find_face_intersections(built.mesh, h.new_faces).size();
       self_intersections += si;
       std::string cgal_min_angle = "-";
@@ -310,6 +312,7 @@ int main(int argc, char** argv) {
              mean_at_most_best, holes_with_truth,
              holes_with_truth ? 100.0 * mean_at_most_best / holes_with_truth : 0.0);
   fmt::print("worst minimum angle of a new face: {:.1f} deg\n", worst_min_angle);
+  fmt::print("minimum angle >= 15 deg (unrounded): {}/{} holes\n", min_angle_met, holes_total);
   if (timed) {
     std::sort(ratios.begin(), ratios.end());
     fmt::print(
