@@ -132,7 +132,7 @@ struct HoleFillReport {
 };
 
 //! Fills one hole found by find_holes() on the current mesh. On failure the mesh is
-//! unchanged (faces the attempt added are deleted; call garbage_collection() before export).
+//! unchanged (faces the attempt added are deleted elements; serialize_mesh skips them).
 HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options = {});
 //! The same with the searches' reach kept by the caller across several edits of one mesh (a
 //! zipper and the fills after it): made by make_search_reach on first use, the new faces filed

@@ -252,14 +252,8 @@ class Patch {
       if (!movable && after < before) continue;
       const VertexHandle v = mesh_.split(e, middle);
       new_vertices_.push_back(v);
-      for (const FaceHandle nf : mesh_.vf_range(v)) {
-        if (!set_.contains(nf)) {
-          set_.insert(nf);
-          position_[nf.idx()] = static_cast<std::uint32_t>(faces_.size());
-          faces_.push_back(nf);
-        }
-        touched_.push_back(nf);
-      }
+      file_faces_around(v);
+      for (const FaceHandle nf : mesh_.vf_range(v)) touched_.push_back(nf);
       ++splits;
     }
     return splits;
@@ -336,15 +330,14 @@ class Patch {
       if (near > 1) return false;  // next to a vertex
       if (encroaches_rim(g, point)) return false;
       if (near == 0) return insert_vertex(mesh_.split(g, point), f, before, corners[0]);
-      // On a side: split that edge (a rim side cannot be).
-      const std::size_t c =
-          static_cast<std::size_t>(std::min_element(lambda.begin(), lambda.end()) - lambda.begin());
-      const EdgeHandle e = mesh_.edge_handle(side[c]);
+      // On a side (the one with the smallest weight, side[exit]): split that edge (a rim side
+      // cannot be).
+      const EdgeHandle e = mesh_.edge_handle(side[exit]);
       if (!interior(e)) return false;
-      const Vec3& a = mesh_.point(mesh_.from_vertex_handle(side[c]));
-      const Vec3& b = mesh_.point(mesh_.to_vertex_handle(side[c]));
+      const Vec3& a = mesh_.point(mesh_.from_vertex_handle(side[exit]));
+      const Vec3& b = mesh_.point(mesh_.to_vertex_handle(side[exit]));
       const double t = std::clamp(OpenMesh::dot(point - a, b - a) / (b - a).sqrnorm(), 0.1, 0.9);
-      const VertexHandle end = mesh_.from_vertex_handle(side[c]);
+      const VertexHandle end = mesh_.from_vertex_handle(side[exit]);
       return insert_vertex(mesh_.split(e, a + t * (b - a)), f, before, end);
     }
     return false;
@@ -374,12 +367,7 @@ class Patch {
   //! corner of the split triangle, an end of the split edge), which restores the triangles the
   //! split replaced.
   bool insert_vertex(VertexHandle v, FaceHandle cap, double before, VertexHandle end) {
-    for (const FaceHandle nf : mesh_.vf_range(v))
-      if (!set_.contains(nf)) {
-        set_.insert(nf);
-        position_[nf.idx()] = static_cast<std::uint32_t>(faces_.size());
-        faces_.push_back(nf);
-      }
+    file_faces_around(v);
     std::vector<EdgeHandle> flipped;
     flip_around(v, flipped);
     double after = mesh_.status(cap).deleted() ? 1.0 : face_shape(mesh_, cap);
@@ -407,6 +395,16 @@ class Patch {
         if (set_.contains(nf)) touched_.push_back(nf);
     drop_deleted();
     return false;
+  }
+
+  //! Adds the faces around \p v (a split just made it) that are not in the patch yet.
+  void file_faces_around(VertexHandle v) {
+    for (const FaceHandle nf : mesh_.vf_range(v))
+      if (!set_.contains(nf)) {
+        set_.insert(nf);
+        position_[nf.idx()] = static_cast<std::uint32_t>(faces_.size());
+        faces_.push_back(nf);
+      }
   }
 
   //! Lawson's flips around a new vertex: its link edges, and those a flip exposes.
