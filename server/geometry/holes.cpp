@@ -6,6 +6,8 @@
 #include <numbers>
 #include <set>
 
+#include <fmt/format.h>
+
 #include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
@@ -144,6 +146,41 @@ void compute_hole_properties(const Mesh& mesh, Hole& hole, bool compute_projecta
   }
 }
 
+namespace {
+
+//! The fill's geometric tests multiply up to four lengths or coordinates (squared areas,
+//! orientation determinants, the fairing's area weights). With boundary edges shorter than
+//! kMinComputableLength or coordinates beyond kMaxComputableCoordinate those products leave the
+//! double range (underflow to 0, overflow to inf): normals and angles come out 0 and a fill
+//! would be wrong without knowing it. Such a hole is refused, saying why, instead.
+constexpr double kMinComputableLength = 1e-60;
+constexpr double kMaxComputableCoordinate = 1e60;
+
+std::string out_of_range_reason(const Mesh& mesh, const Hole& hole) {
+  double largest = 0, perimeter = 0;
+  for (std::size_t i = 0; i < hole.loop.size(); ++i) {
+    const Vec3& p = mesh.point(hole.loop[i]);
+    largest = std::max({largest, std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
+    perimeter += (mesh.point(hole.loop[(i + 1) % hole.loop.size()]) - p).norm();
+  }
+  if (!(largest <= kMaxComputableCoordinate))
+    return fmt::format(
+        "a boundary coordinate is {:.3g}, beyond the {:.0e} the fill's geometric tests can "
+        "multiply without overflow: rescale the mesh",
+        largest, kMaxComputableCoordinate);
+  const double mean_edge =
+      perimeter / static_cast<double>(std::max<std::size_t>(hole.loop.size(), 1));
+  if (mean_edge == 0) return "the boundary's vertices all lie at one point (a degenerate hole)";
+  if (!(mean_edge >= kMinComputableLength))
+    return fmt::format(
+        "the boundary edges are {:.3g} long on average, below the {:.0e} the fill's geometric "
+        "tests can multiply without underflow: a degenerate hole, or rescale the mesh",
+        mean_edge, kMinComputableLength);
+  return {};
+}
+
+}  // namespace
+
 HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) {
   HoleSearchResult result;
   std::vector<std::uint8_t> visited(mesh.n_halfedges(), 0);
@@ -179,6 +216,7 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
         hole.unfillable_reason = "the boundary passes through vertex " + std::to_string(*dup) +
                                  " twice (pinched hole): not a disk";
     }
+    if (hole.unfillable_reason.empty()) hole.unfillable_reason = out_of_range_reason(mesh, hole);
     result.holes.push_back(std::move(hole));
   }
   // Deterministic order by the smallest hole halfedge (u, v), then stable ids.

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <functional>
 #include <numbers>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -267,6 +268,94 @@ TEST(FillHole, HoleThatCanOnlyIntersectIsLeftOpenAndNothingChanges) {
   mesh.garbage_collection();
   EXPECT_EQ(mesh.n_faces(), faces_before);
   EXPECT_EQ(testing::boundary_halfedges(mesh), before.boundary);
+}
+
+// Geometry a reader accepts but no scanner should produce: coordinates near the double range,
+// denormal offsets, vertices collapsed onto others (zero-length edges, degenerate triangles),
+// far translations that leave a few significant bits. Every hole is then either filled under
+// every invariant or left open with a reason that names why, and no coordinate becomes
+// non-finite (the sanitizer build runs this too).
+TEST(FillRobustness, CorruptedGeometryIsFilledCleanlyOrLeftOpenWithAReason) {
+  const MeshSoup clean = remove_faces(testing::uv_sphere(1.0, 24, 12), [](const Vec3& c) {
+    return (c - Vec3(1, 0, 0)).norm() < 0.45 || (c - Vec3(0, 0, 1)).norm() < 0.35 ||
+           (c - Vec3(-0.6, -0.6, -0.5)).norm() < 0.4;
+  });
+  std::mt19937 rng(2026);
+  std::size_t filled = 0, left_open = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    MeshSoup soup = clean;
+    const auto pick = [&] { return rng() % soup.points.size(); };
+    switch (trial % 5) {
+      case 0:  // a few vertices thrown to the edge of the double range
+        for (int k = 0; k < 3; ++k)
+          soup.points[pick()] = Vec3(1e300, -1e300, (rng() % 2 ? 1 : -1) * 1.7e308);
+        break;
+      case 1:  // vertices collapsed onto a neighbour's position
+        for (int k = 0; k < 6; ++k) {
+          const auto& t = soup.triangles[rng() % soup.triangles.size()];
+          soup.points[t[0]] = soup.points[t[1]];
+        }
+        break;
+      case 2:  // denormal-sized perturbations and a run of points collapsed into one
+        for (int k = 0; k < 8; ++k) soup.points[pick()] += Vec3(4.9e-324, 0, -4.9e-324);
+        for (std::size_t k = 0, first = pick(); k < 12; ++k)
+          soup.points[(first + k) % soup.points.size()] = soup.points[first];
+        break;
+      case 3:  // the whole mesh far from the origin: 1e12 leaves ~4 digits of the unit sphere
+        for (auto& p : soup.points) p += Vec3(1e12, -1e12, 1e12);
+        break;
+      case 4:  // the whole mesh scaled down to 1e-150 (squared lengths underflow)
+        for (auto& p : soup.points) p *= 1e-150;
+        break;
+    }
+    Mesh mesh = build_mesh(soup).mesh;
+    const std::vector<Hole> holes = find_holes(mesh).holes;
+    const testing::Snapshot before = take_snapshot(mesh);
+    FillSelection all;
+    all.mode = FillSelection::Mode::All;
+    const FillReport report = fill_holes(mesh, all, {});
+    for (const HoleFillReport& r : report.holes) {
+      EXPECT_TRUE(r.filled || !r.reason.empty()) << "trial " << trial << " hole " << r.hole_id;
+      (r.filled ? filled : left_open) += 1;
+    }
+    for (const VertexHandle v : mesh.vertices()) {
+      const Vec3& p = mesh.point(v);
+      ASSERT_TRUE(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))
+          << "trial " << trial << " vertex " << v.idx();
+    }
+    const std::string problems = check_fill_invariants(before, mesh, report.holes, holes);
+    EXPECT_TRUE(problems.empty()) << "trial " << trial << ": " << problems;
+  }
+  // Both outcomes occur: the corruptions are not all harmless, nor all fatal.
+  EXPECT_GT(filled, 0u);
+  EXPECT_GT(left_open, 0u);
+}
+
+// Scale alone decides whether the fill's products stay in the double range: the same hole at
+// 1e-30 is filled, at 1e-150 or 1e100 it is refused with a reason that says to rescale (it was
+// "filled" with 0-degree triangles, its normals having underflowed to zero).
+TEST(FillRobustness, HoleAtAnExtremeScaleIsRefusedWithTheReason) {
+  for (const double scale : {1e-30, 1e-150, 1e100}) {
+    MeshSoup soup = testing::grid_with_round_hole();
+    for (auto& p : soup.points) p *= scale;
+    Mesh mesh = build_mesh(soup).mesh;
+    const std::vector<Hole> holes = find_holes(mesh).holes;
+    const Hole* inner = nullptr;
+    for (const Hole& h : holes)
+      if (h.loop.size() < 64) inner = &h;
+    ASSERT_NE(inner, nullptr);
+    const HoleFillReport r = fill_hole(mesh, *inner, {});
+    if (scale == 1e-30) {
+      EXPECT_TRUE(inner->unfillable_reason.empty()) << inner->unfillable_reason;
+      ASSERT_TRUE(r.filled) << r.reason;
+      EXPECT_GT(triangle_quality(face_triangles(mesh, r.new_faces)).min_angle_deg, 15.0);
+    } else {
+      EXPECT_NE(inner->unfillable_reason.find("rescale the mesh"), std::string::npos)
+          << scale << ": " << inner->unfillable_reason;
+      EXPECT_FALSE(r.filled);
+      EXPECT_EQ(r.reason, inner->unfillable_reason);
+    }
+  }
 }
 
 TEST(FillHoles, SelectionByIdNearestAndSizeLimit) {
