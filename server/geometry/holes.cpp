@@ -156,26 +156,25 @@ namespace {
 constexpr double kMinComputableLength = 1e-60;
 constexpr double kMaxComputableCoordinate = 1e60;
 
+//! Reads the hole's properties (compute_hole_properties first).
 std::string out_of_range_reason(const Mesh& mesh, const Hole& hole) {
-  double largest = 0, perimeter = 0;
-  for (std::size_t i = 0; i < hole.loop.size(); ++i) {
-    const Vec3& p = mesh.point(hole.loop[i]);
+  double largest = 0;
+  for (const VertexHandle v : hole.loop) {
+    const Vec3& p = mesh.point(v);
     largest = std::max({largest, std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
-    perimeter += (mesh.point(hole.loop[(i + 1) % hole.loop.size()]) - p).norm();
   }
   if (!(largest <= kMaxComputableCoordinate))
     return fmt::format(
         "a boundary coordinate is {:.3g}, beyond the {:.0e} the fill's geometric tests can "
         "multiply without overflow: rescale the mesh",
         largest, kMaxComputableCoordinate);
-  const double mean_edge =
-      perimeter / static_cast<double>(std::max<std::size_t>(hole.loop.size(), 1));
-  if (mean_edge == 0) return "the boundary's vertices all lie at one point (a degenerate hole)";
-  if (!(mean_edge >= kMinComputableLength))
+  if (hole.mean_edge_length == 0)
+    return "the boundary's vertices all lie at one point (a degenerate hole)";
+  if (!(hole.mean_edge_length >= kMinComputableLength))
     return fmt::format(
         "the boundary edges are {:.3g} long on average, below the {:.0e} the fill's geometric "
         "tests can multiply without underflow: a degenerate hole, or rescale the mesh",
-        mean_edge, kMinComputableLength);
+        hole.mean_edge_length, kMinComputableLength);
   return {};
 }
 
@@ -216,7 +215,6 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
         hole.unfillable_reason = "the boundary passes through vertex " + std::to_string(*dup) +
                                  " twice (pinched hole): not a disk";
     }
-    if (hole.unfillable_reason.empty()) hole.unfillable_reason = out_of_range_reason(mesh, hole);
     result.holes.push_back(std::move(hole));
   }
   // Deterministic order by the smallest hole halfedge (u, v), then stable ids.
@@ -247,6 +245,7 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
     if (hole.id == overflow_id) ++overflow_id;
     used_ids.insert(hole.id);
     compute_hole_properties(mesh, hole, options.compute_projectability);
+    if (hole.unfillable_reason.empty()) hole.unfillable_reason = out_of_range_reason(mesh, hole);
     sorted.push_back(std::move(hole));
   }
   result.holes = std::move(sorted);

@@ -45,7 +45,8 @@ struct VertexGrid {
   std::size_t filed_below = 0;                      //!< vertices with a smaller index were filed
 
   bool empty() const { return !(cell > 0); }
-  //! The cell of point \p q (unclamped).
+  //! The cell of point \p q; per axis -1 below the grid and `cells` above it (so a point far
+  //! outside, or NaN, cannot overflow the conversion).
   Eigen::Vector3i cell_of(const Eigen::Vector3d& q) const;
   std::size_t bucket_of(const Eigen::Vector3i& c) const;
 };

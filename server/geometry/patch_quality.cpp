@@ -372,11 +372,12 @@ class Patch {
     flip_around(v, flipped);
     double after = mesh_.status(cap).deleted() ? 1.0 : face_shape(mesh_, cap);
     for (const FaceHandle nf : mesh_.vf_range(v)) after = std::min(after, face_shape(mesh_, nf));
-    if (after > before + 1e-9) {
+    const auto keep = [&] {
       new_vertices_.push_back(v);
       for (const FaceHandle nf : mesh_.vf_range(v)) touched_.push_back(nf);
       return true;
-    }
+    };
+    if (after > before + 1e-9) return keep();
     for (auto e = flipped.rbegin(); e != flipped.rend(); ++e) mesh_.flip(*e);
     // The restored triangles may come back under other handles: they are looked at again.
     std::vector<VertexHandle> link;
@@ -384,11 +385,7 @@ class Patch {
     HalfedgeHandle back;
     for (const HalfedgeHandle h : mesh_.voh_range(v))
       if (mesh_.to_vertex_handle(h) == end) back = h;
-    if (!back.is_valid() || !mesh_.is_collapse_ok(back)) {  // not expected: keep the vertex
-      new_vertices_.push_back(v);
-      for (const FaceHandle nf : mesh_.vf_range(v)) touched_.push_back(nf);
-      return true;
-    }
+    if (!back.is_valid() || !mesh_.is_collapse_ok(back)) return keep();  // not expected
     mesh_.collapse(back);
     for (const VertexHandle x : link)
       for (const FaceHandle nf : mesh_.vf_range(x))

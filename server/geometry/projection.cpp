@@ -116,6 +116,13 @@ std::size_t count_self_intersections(std::span<const Point2> polygon) {
 
 namespace {
 
+double distance_to_segment(const Point2& p, const Point2& a, const Point2& b) {
+  const Point2 ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
+}
+
 //! point_in_polygon for many points against one polygon: its edges filed in horizontal slabs,
 //! so a point is tested against the edges whose y-range meets its slab instead of all n (the
 //! fold-over guard asks for every outside point, which made each projectability test O(n^2)).
@@ -149,19 +156,18 @@ class SlabbedPolygon {
 
   //! Whether some edge lies within \p tolerance of \p p (distance_to_segment <= tolerance):
   //! only the edges of the slabs within tolerance of p.y can.
-  template <typename Distance>
-  bool near_edge(const Point2& p, double tolerance, Distance&& distance) const {
+  bool near_edge(const Point2& p, double tolerance) const {
     const std::size_t n = polygon_.size();
     if (slabs_ == 0) {  // no slabs: every edge
       for (std::size_t i = 0, j = n - 1; i < n; j = i++)
-        if (distance(p, polygon_[i], polygon_[j]) <= tolerance) return true;
+        if (distance_to_segment(p, polygon_[i], polygon_[j]) <= tolerance) return true;
       return false;
     }
     if (p.y() + tolerance < y0_ || p.y() - tolerance > y1_) return false;
     for (std::size_t s = slab(p.y() - tolerance); s <= slab(p.y() + tolerance); ++s)
       for (std::uint32_t e = start_[s]; e < start_[s + 1]; ++e) {
         const std::size_t i = edges_[e], j = i == 0 ? n - 1 : i - 1;
-        if (distance(p, polygon_[i], polygon_[j]) <= tolerance) return true;
+        if (distance_to_segment(p, polygon_[i], polygon_[j]) <= tolerance) return true;
       }
     return false;
   }
@@ -189,13 +195,6 @@ class SlabbedPolygon {
   std::size_t slabs_ = 0;
   std::vector<std::uint32_t> start_, edges_;
 };
-
-double distance_to_segment(const Point2& p, const Point2& a, const Point2& b) {
-  const Point2 ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (a + t * ab - p).norm();
-}
 
 }  // namespace
 
@@ -226,8 +225,7 @@ ProjectabilityReport test_projectable(std::span<const Vec3> loop,
   const SlabbedPolygon slabbed(polygon);
   for (const Vec3& q3 : outside_points) {
     const Point2 q = frame.project(q3);
-    if (slabbed.contains(q) && !slabbed.near_edge(q, tolerance, distance_to_segment))
-      ++r.fold_overs;
+    if (slabbed.contains(q) && !slabbed.near_edge(q, tolerance)) ++r.fold_overs;
   }
   if (r.fold_overs > 0) {
     r.why_not = "surrounding surface folds over the hole in projection";
