@@ -49,6 +49,7 @@ struct Args {
   int exit_after_fills = 0;
   std::string tool = "fill";
   double push_step = 0;
+  std::string finish = "fair";
 };
 
 v1::MeshFormat format_of(const std::string& path) {
@@ -163,11 +164,17 @@ int main(int argc, char** argv) {
          "and drag along the curve (P2 towards P3) to make both tangents longer, back to\n"
          "make them shorter, live (K / J: 10% longer / shorter); click to confirm it (the\n"
          "patch snaps onto the guiding surface); hold and sweep to push the patch down to the\n"
-         "curve (the tool is held to the guiding surface); button 2 smooths and\n"
-         "finishes (seed 000 §4.2). Keyboard stylus: space = button 1, B = button 2.\n"
+         "curve (the tool is held to the guiding surface); button 2 shapes the rest of the\n"
+         "patch (--finish) and finishes (seed 000 §4.2). Keyboard stylus: space = button 1,\n"
+         "B = button 2.\n"
          "stitch: press on a boundary edge, drag to the other surface (the nearest\n"
          "boundary vertex lights up), release: one stitch triangle (Algorithm VIII)")
       ->check(CLI::IsMember({"fill", "sharp-edge", "stitch"}))
+      ->capture_default_str();
+  cli.add_option("--finish", a.finish,
+                 "sharp-edge, button 2: fair (each side of the curve faired with the curve\n"
+                 "held), smooth (the thesis' normal propagation, Algorithm VII) or none")
+      ->check(CLI::IsMember({"fair", "smooth", "none"}))
       ->capture_default_str();
   cli.add_option("--push-step", a.push_step,
                  "sharp-edge: push distance per tool step, model units (0 = 1/400 of the "
@@ -255,6 +262,9 @@ int main(int argc, char** argv) {
                          : a.tool == "stitch"   ? app::StationTool::Stitch
                                                 : app::StationTool::Fill;
   station_options.push_step = a.push_step;
+  station_options.push_finish = a.finish == "smooth" ? v1::PUSH_FINISH_SMOOTH
+                                : a.finish == "none" ? v1::PUSH_FINISH_NONE
+                                                     : v1::PUSH_FINISH_FAIR;
   if (a.session.empty()) {
     const std::string mesh = a.mesh.empty() ? default_mesh() : a.mesh;
     std::ifstream in(mesh, std::ios::binary);

@@ -571,8 +571,9 @@ void Station::sharp_edge_second() {
     case SharpPhase::Snapped: {
       if (loop_) loop_->set_constraint({});
       request.set_smooth(true);
+      request.set_finish(options_.push_finish);
       const Status s = client_.sharp_edge(request, response);
-      set_status(s.is_ok() ? fmt::format("sharp edge: smoothed after {} pushes", pushes_)
+      set_status(s.is_ok() ? fmt::format("sharp edge: {} pushes; {}", pushes_, response.summary())
                            : "sharp edge: " + s.to_string());
       picks_.clear();
       curve_.clear();

@@ -94,6 +94,8 @@ struct StationOptions {
   std::uint32_t second_button = 2;  //!< button mask of the second button (take back, finish)
   StationTool tool = StationTool::Fill;
   double push_step = 0;  //!< sharp edge: push distance per sample; 0 = 1/400 of the diagonal
+  //! sharp edge, button 2: how the rest of the patch is shaped after the pushes
+  v1::PushFinish push_finish = v1::PUSH_FINISH_FAIR;
 };
 
 class Station {

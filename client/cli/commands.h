@@ -52,7 +52,7 @@ struct FillArgs {
   int refine_iterations = 3;
   std::string shape = "auto";
   std::string sharp = "auto";  //!< auto | off: retain the creases that cross each hole
-  double crease_angle = 50;   //!< dihedral angle (degrees) above which an edge is a crease
+  double crease_angle = 50;    //!< dihedral angle (degrees) above which an edge is a crease
   bool json = false;
   bool binary = false;
   bool strict = false;
@@ -82,6 +82,7 @@ struct SharpenArgs {
   double k1 = 0, k4 = 0;
   double depth = 0;
   std::string method = "split";
+  std::string finish;  //!< push-down only: fair, smooth or none (empty: fair)
   std::string shape = "auto";
   int refine_iterations = 3;
   bool json = false;

@@ -101,6 +101,15 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
            "exactly on the curve)\n";
     return kExitUsage;
   }
+  if (!args.finish.empty() && options.method != geometry::SharpenMethod::PushDown) {
+    err << "error: --finish applies to --method push-down (the split variant fills each side "
+           "of the curve by the fill's own shape rules)\n";
+    return kExitUsage;
+  }
+  if (!args.finish.empty() && !geometry::parse_push_finish(args.finish, options.finish)) {
+    err << "error: --finish must be fair, smooth or none\n";
+    return kExitUsage;
+  }
   if (!geometry::parse_patch_shape(args.shape, options.fill.shape)) {
     err << "error: --shape must be flat, fair or auto\n";
     return kExitUsage;
@@ -140,7 +149,10 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
                      {"snapped", r.snap.moved},
                      {"split_edges", r.snap.splits},
                      {"pushed", r.pushed},
+                     {"finish", geometry::to_string(options.finish)},
                      {"smoothed", r.smooth.moved},
+                     {"faired", r.fairing.moved},
+                     {"finish_undone", r.finish_undone},
                      {"patch_faces", r.patch.size()},
                      {"vertices_written", written.vertices_written},
                      {"faces_written", written.faces_written}};
@@ -149,11 +161,9 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
     out << fill_text(r.fill);
     if (options.method == geometry::SharpenMethod::PushDown)
       out << fmt::format(
-          "sharp edge retained (push-down): {} vertices snapped onto the guiding surface, {} "
-          "edges split, {} pushed to the curve{}, {} smoothed\n",
-          r.snap.moved, r.snap.splits, r.pushed,
-          options.depth > 0 ? fmt::format(" (and up to {} past it)", options.depth) : "",
-          r.smooth.moved);
+          "sharp edge retained (push-down{}): {}\n",
+          options.depth > 0 ? fmt::format(", up to {} past the curve", options.depth) : "",
+          geometry::push_down_summary(r, options.finish));
     else
       out << "sharp edge retained (split): the hole was filled on both sides of the curve\n";
     out << fmt::format("wrote {} ({} vertices, {} faces)\n", args.output, written.vertices_written,

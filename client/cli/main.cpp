@@ -138,9 +138,16 @@ int main(int argc, char** argv) {
                    "split: fill the hole on both sides of the sampled curve (the crease by\n"
                    "construction; closer to ground truth on the shared cases); push-down: the\n"
                    "thesis' tool - snap the patch onto the guiding surface, push its vertices to\n"
-                   "the curve (Algorithms V, VI), smooth the rest (Algorithm VII)")
+                   "the curve (Algorithms V, VI), then shape the rest (--finish)")
       ->check(CLI::IsMember({"split", "push-down"}))
       ->capture_default_str();
+  sharpen_cmd
+      ->add_option("--finish", sharpen.finish,
+                   "push-down only, how the rest of the patch is shaped after the push: fair\n"
+                   "(default: each side of the curve faired with the curve held), smooth (the\n"
+                   "thesis' normal propagation, Algorithm VII) or none. A finish that would make\n"
+                   "the patch intersect the mesh is undone and reported")
+      ->check(CLI::IsMember({"fair", "smooth", "none"}));
   sharpen_cmd
       ->add_option("--depth", sharpen.depth,
                    "push-down only: push this far past the curve (free-form edges)")

@@ -530,7 +530,14 @@ int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::o
     err << "error: --depth applies to --method push-down\n";
     return kExitUsage;
   }
+  if (!args.finish.empty() && args.method != "push-down") {
+    err << "error: --finish applies to --method push-down\n";
+    return kExitUsage;
+  }
   v1::SharpenRequest request;
+  request.set_finish(args.finish == "smooth" ? v1::PUSH_FINISH_SMOOTH
+                     : args.finish == "none" ? v1::PUSH_FINISH_NONE
+                                             : v1::PUSH_FINISH_FAIR);
   request.set_hole_id(args.hole);
   for (const auto& p : {points.p1, points.p2, points.p3, points.p4})
     *request.add_points() = wire_point(p);

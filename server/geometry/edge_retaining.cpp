@@ -1,10 +1,12 @@
 #include "server/geometry/edge_retaining.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
 #include "server/geometry/face_set.h"
+#include "server/geometry/fairing.h"
 
 namespace touchmend::geometry {
 namespace {
@@ -417,6 +419,74 @@ SmoothReport smooth_by_normal_propagation(Mesh& mesh, const SharpEdgeState& stat
     }
     ++report.rounds;
   }
+  return report;
+}
+
+int side_of_curve(const GuideSurface& guide, const Vec3& p) {
+  const Point2 q = guide.frame.project(p);
+  double best = std::numeric_limits<double>::infinity();
+  int side = 0;
+  for (std::size_t k = 0; k + 1 < guide.polyline.size(); ++k) {
+    const Point2& a = guide.polyline[k];
+    const Point2 ab = guide.polyline[k + 1] - a;
+    const double length2 = ab.squaredNorm();
+    const double t = length2 > 0 ? std::clamp((q - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+    const double d = (a + t * ab - q).squaredNorm();
+    if (d < best) {
+      best = d;
+      const double o = orient2d(a, a + ab, q);
+      side = o > 0 ? 1 : (o < 0 ? -1 : 0);
+    }
+  }
+  return side;
+}
+
+CurveFairingReport fair_beside_curve(Mesh& mesh, const SharpEdgeState& state) {
+  CurveFairingReport report;
+  const FaceSet patch(state.patch);
+  const auto fixed = [&](VertexHandle v) {
+    return state.boundary.count(v.idx()) > 0 || state.on_guide.count(v.idx()) > 0 ||
+           state.moved.count(v.idx()) > 0;
+  };
+  // Sides from the positions before any vertex moves: the first side's fairing must not
+  // change which side the second side's faces are on.
+  std::map<int, int> face_side;
+  std::array<std::vector<VertexHandle>, 2> free_vertices;
+  std::set<int> seen;
+  for (const FaceHandle f : state.patch) {
+    if (mesh.status(f).deleted()) continue;
+    Vec3 centroid(0, 0, 0);
+    for (const VertexHandle v : mesh.fv_range(f)) {
+      centroid += mesh.point(v) / 3.0;
+      if (fixed(v) || !seen.insert(v.idx()).second) continue;
+      const int side = side_of_curve(state.guide, mesh.point(v));
+      free_vertices[side >= 0 ? 0 : 1].push_back(v);
+    }
+    face_side[f.idx()] = side_of_curve(state.guide, centroid);
+  }
+  std::map<int, Vec3> before;
+  for (const auto& side : free_vertices)
+    for (const VertexHandle v : side) before[v.idx()] = mesh.point(v);
+  for (int s = 0; s < 2; ++s) {
+    if (free_vertices[s].empty()) continue;
+    const int side = s == 0 ? 1 : -1;
+    FairingOptions options;
+    // The surroundings of a crease are two surfaces, not one sphere or quadric.
+    options.base_fit_rings = 0;
+    options.ignore_face = [&](FaceHandle f) {
+      if (!patch.contains(f)) return false;
+      const auto it = face_side.find(f.idx());
+      return it != face_side.end() && it->second != 0 && it->second != side;
+    };
+    const FairingReport r = fair_vertices(mesh, free_vertices[s], options);
+    if (!r.ok) {
+      for (const auto& [index, p] : before) mesh.set_point(VertexHandle(index), p);
+      report.failure = r.failure;
+      return report;
+    }
+    report.moved += r.free_vertices;
+  }
+  report.ok = true;
   return report;
 }
 

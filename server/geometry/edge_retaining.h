@@ -122,4 +122,23 @@ struct SmoothReport {
 //! fixed; until every vertex is fixed.
 SmoothReport smooth_by_normal_propagation(Mesh& mesh, const SharpEdgeState& state);
 
+//! Which side of the guide's curve \p p lies on, seen along the guide's normal: +1 left of the
+//! polyline (in the direction P2 -> P3), -1 right, by its nearest segment.
+int side_of_curve(const GuideSurface& guide, const Vec3& p);
+
+struct CurveFairingReport {
+  bool ok = false;
+  std::string failure;
+  std::size_t moved = 0;  //!< free vertices faired (both sides)
+};
+
+//! The finish ALGORITHMS.md §3.4 recommends after a push-down instead of Algorithm VII: the
+//! patch's free vertices (not on the boundary, the curtain or pushed) are faired by the
+//! bi-Laplacian (fairing.h) with everything else fixed, each side of the curve on its own (the
+//! other side's patch faces are left out of its operator), so each side meets the surroundings
+//! with matching tangents and the crease along the curtain vertices stays sharp. Algorithm VII
+//! marches normals in from the boundary in one pass and accumulates error toward the middle
+//! (measured on the *_sharp cases: README "Sharp edges"). On failure nothing moves.
+CurveFairingReport fair_beside_curve(Mesh& mesh, const SharpEdgeState& state);
+
 }  // namespace touchmend::geometry

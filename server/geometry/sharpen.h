@@ -10,6 +10,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "server/geometry/edge_retaining.h"
 #include "server/geometry/hole_filling.h"
@@ -20,6 +21,15 @@ namespace touchmend::geometry {
 enum class SharpenMethod { PushDown, Split };
 const char* to_string(SharpenMethod method);
 
+//! What shapes the rest of the patch after a push-down.
+enum class PushFinish {
+  Fair,    //!< fair_beside_curve: each side faired with the curve held (ALGORITHMS.md §3.4)
+  Smooth,  //!< Algorithm VII, the thesis' smoothing by normal propagation
+  None,    //!< leave the first fill's shape
+};
+const char* to_string(PushFinish finish);
+bool parse_push_finish(std::string_view text, PushFinish& finish);
+
 struct SharpenOptions {
   //! Split by default: closer to the ground truth on every *_sharp case where both apply, and
   //! it never folds the patch (README "Sharp edges"). PushDown is the thesis' tool.
@@ -29,8 +39,10 @@ struct SharpenOptions {
   //! retaining, whatever `fill.sharp` says, since the picks define the crease).
   FillOptions fill;
   SnapOptions snap;
-  double depth = 0;    //!< push past the curve by this much (push-down variant)
-  bool smooth = true;  //!< Algorithm VII after the push
+  double depth = 0;  //!< push past the curve by this much (push-down variant)
+  //! Fair by default: on the *_sharp cases Algorithm VII moved the patch away from the ground
+  //! truth wherever it moved anything (README "Sharp edges").
+  PushFinish finish = PushFinish::Fair;
   //! Picks farther than this (in hole diameters) from the hole's surroundings are refused.
   double max_pick_distance = 2.0;
 };
@@ -43,7 +55,11 @@ struct SharpenResult {
   HoleFillReport fill;
   SnapReport snap;
   std::size_t pushed = 0;
-  SmoothReport smooth;
+  SmoothReport smooth;         //!< PushFinish::Smooth
+  CurveFairingReport fairing;  //!< PushFinish::Fair
+  //! Why the finish was undone (it made the patch intersect the mesh, or fairing failed): the
+  //! pushed patch is kept as it was before the finish. Empty: the finish was kept.
+  std::string finish_undone;
   std::vector<FaceHandle> patch;  //!< the hole's faces at the end
 };
 
@@ -52,5 +68,9 @@ struct SharpenResult {
 //! deleted elements (collect garbage before export).
 SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& picks,
                            const SharpenOptions& options = {});
+
+//! One line on what a push-down did, for reports: "4 snapped, 2 split, 10 pushed, 43 faired"
+//! (or "..., fairing undone: <why>").
+std::string push_down_summary(const SharpenResult& result, PushFinish finish);
 
 }  // namespace touchmend::geometry

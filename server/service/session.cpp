@@ -523,14 +523,31 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
     case v1::SharpEdgeRequest::kSmooth: {
       if (!sharp_tool_ || !sharp_tool_->snapped)
         return {StatusCode::FailedPrecondition, "confirm the curve before smoothing"};
+      geometry::PushFinish finish;
+      switch (request.finish()) {
+        case v1::PUSH_FINISH_FAIR:
+          finish = geometry::PushFinish::Fair;
+          break;
+        case v1::PUSH_FINISH_SMOOTH:
+          finish = geometry::PushFinish::Smooth;
+          break;
+        case v1::PUSH_FINISH_NONE:
+          finish = geometry::PushFinish::None;
+          break;
+        default:
+          return {StatusCode::InvalidArgument,
+                  "unknown finish " + std::to_string(request.finish())};
+      }
       SharpEdgeTool tool = *sharp_tool_;
       if (Status s =
-              edit(geometry_.sharp_edge_smooth(document_, tool), "sharp edge: smooth", false);
+              edit(geometry_.sharp_edge_smooth(document_, tool, finish),
+                   std::string("sharp edge: finish (") + geometry::to_string(finish) + ")", false);
           !s.is_ok())
         return s;
       fill_preview(tool, response);
       sharp_tool_.reset();  // the edit is finished
-      response.set_summary("smoothed; the sharp-edge tool is done");
+      response.set_summary(std::string("patch finished (") + geometry::to_string(finish) +
+                           "): the sharp-edge tool is done");
       publish_tool_preview(principal, nullptr);
       return {};
     }

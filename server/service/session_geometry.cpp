@@ -523,6 +523,21 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
   options.hermite.k1 = request.k1();
   options.hermite.k4 = request.k4();
   options.depth = request.depth();
+  switch (request.finish()) {
+    case v1::PUSH_FINISH_SMOOTH:
+      options.finish = geometry::PushFinish::Smooth;
+      break;
+    case v1::PUSH_FINISH_NONE:
+      options.finish = geometry::PushFinish::None;
+      break;
+    case v1::PUSH_FINISH_FAIR:
+      options.finish = geometry::PushFinish::Fair;
+      break;
+    default:
+      outcome.status = {StatusCode::InvalidArgument,
+                        "unknown push-down finish " + std::to_string(request.finish())};
+      return outcome;
+  }
   options.fill = to_fill_options(request.fill());
   sync(document);
   const auto hole = hole_by_doc_id(request.hole_id());
@@ -553,10 +568,8 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
     for (const VertexHandle v : mesh_.fv_range(f))
       if (is_new(v) && seen.insert(v.idx()).second) vertices.push_back(v);
   summary = options.method == geometry::SharpenMethod::PushDown
-                ? fmt::format(
-                      "sharp edge retained on hole {} (push-down: {} snapped, {} split, {} "
-                      "pushed, {} smoothed)",
-                      request.hole_id(), r.snap.moved, r.snap.splits, r.pushed, r.smooth.moved)
+                ? fmt::format("sharp edge retained on hole {} (push-down: {})", request.hole_id(),
+                              geometry::push_down_summary(r, options.finish))
                 : fmt::format("sharp edge retained on hole {} (split along the curve)",
                               request.hole_id());
   outcome.delta = edit_delta(document, std::move(vertices), r.patch, first_free);
@@ -988,12 +1001,21 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_push(const rpc::MeshDoc
 }
 
 SessionGeometry::FillOutcome SessionGeometry::sharp_edge_smooth(const rpc::MeshDocument& document,
-                                                                SharpEdgeTool& tool) {
+                                                                SharpEdgeTool& tool,
+                                                                geometry::PushFinish finish) {
   FillOutcome outcome;
   auto state = tool_state_of(document, tool, outcome);
   if (!state) return outcome;
   const std::map<int, geometry::Vec3> before = patch_positions(*state);
-  geometry::smooth_by_normal_propagation(mesh_, *state);
+  if (finish == geometry::PushFinish::Smooth) {
+    geometry::smooth_by_normal_propagation(mesh_, *state);
+  } else if (finish == geometry::PushFinish::Fair) {
+    const geometry::CurveFairingReport faired = geometry::fair_beside_curve(mesh_, *state);
+    if (!faired.ok) {
+      outcome.status = {StatusCode::FailedPrecondition, "fairing failed: " + faired.failure};
+      return outcome;
+    }
+  }
   holes_.reset();
   std::vector<VertexHandle> moved;
   for (const auto& [index, old] : before)
@@ -1002,8 +1024,10 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_smooth(const rpc::MeshD
   if (!geometry::find_face_intersections(mesh_, state->patch, 1, geometry::max_edge_length(mesh_))
            .empty()) {
     for (const auto& [index, old] : before) mesh_.set_point(VertexHandle(index), old);
-    outcome.status = {StatusCode::FailedPrecondition,
-                      "smoothing would make the patch intersect the mesh"};
+    outcome.status = {
+        StatusCode::FailedPrecondition,
+        fmt::format("{} would make the patch intersect the mesh",
+                    finish == geometry::PushFinish::Smooth ? "smoothing" : "fairing")};
     return outcome;
   }
   outcome.delta = move_delta(document, moved);

@@ -150,7 +150,10 @@ class SessionGeometry {
   };
   FillOutcome sharp_edge_push(const rpc::MeshDocument& document, SharpEdgeTool& tool,
                               const v1::SharpEdgePush& push, PushReport& report);
-  FillOutcome sharp_edge_smooth(const rpc::MeshDocument& document, SharpEdgeTool& tool);
+  //! The tool's last step: shapes the patch's free vertices (\p finish: fairing each side of
+  //! the curve, or Algorithm VII); refused when that would make the patch cross the mesh.
+  FillOutcome sharp_edge_smooth(const rpc::MeshDocument& document, SharpEdgeTool& tool,
+                                geometry::PushFinish finish);
   //! Records that the last fill's or stitch's delta was applied to the document (else
   //! invalidate()).
   void commit_pending();

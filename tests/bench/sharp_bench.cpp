@@ -127,8 +127,20 @@ int main(int argc, char** argv) {
     const std::string& name = loaded.name;
     const tmd::testing::HoleCase* c = &loaded;
     for (const auto& ch : c->holes) {
-      for (const geo::SharpenMethod method :
-           {geo::SharpenMethod::PushDown, geo::SharpenMethod::Split}) {
+      struct PickedVariant {
+        geo::SharpenMethod method;
+        geo::PushFinish finish;
+      };
+      for (const PickedVariant variant :
+           {PickedVariant{geo::SharpenMethod::PushDown, geo::PushFinish::Fair},
+            PickedVariant{geo::SharpenMethod::PushDown, geo::PushFinish::Smooth},
+            PickedVariant{geo::SharpenMethod::PushDown, geo::PushFinish::None},
+            PickedVariant{geo::SharpenMethod::Split, geo::PushFinish::None}}) {
+        const geo::SharpenMethod method = variant.method;
+        const std::string variant_name =
+            method == geo::SharpenMethod::Split
+                ? std::string("split")
+                : fmt::format("push-down, finish {}", geo::to_string(variant.finish));
         geo::Mesh mesh = geo::build_mesh(c->holed).mesh;
         const auto holes = geo::find_holes(mesh).holes;
         const auto id = tmd::testing::matching_hole_id(holes, ch);
@@ -142,30 +154,31 @@ int main(int argc, char** argv) {
           if (curve.to && pair == nullptr) pair = &curve;
         if (pair == nullptr) {
           fmt::print("| {} | {} | {} | no crease pair to pick | - | - | - | - |\n", name, ch.id,
-                     geo::to_string(method));
+                     variant_name);
           continue;
         }
         geo::SharpenOptions so;
         so.method = method;
+        so.finish = variant.finish;
         const auto start = std::chrono::steady_clock::now();
         const geo::SharpenResult r = geo::sharpen_hole(mesh, hole, pair->points, so);
         const double ms =
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                 .count();
         if (!r.ok) {
-          fmt::print("| {} | {} | {} | FAILED: {} | - | - | - | - |\n", name, ch.id,
-                     geo::to_string(method), r.failure);
+          fmt::print("| {} | {} | {} | FAILED: {} | - | - | - | - |\n", name, ch.id, variant_name,
+                     r.failure);
           continue;
         }
         geo::HoleFillReport as_fill = r.fill;
         as_fill.new_faces = r.patch;
         const auto score = tmd::testing::score_fill(mesh, as_fill, *c, ch);
-        fmt::print(
-            "| {} | {} | {} | snapped {} split {} pushed {} smoothed {} | {:.2f} | {:.2f} | "
-            "{:.2f} | {:.2f} |\n",
-            name, ch.id, geo::to_string(method), r.snap.moved, r.snap.splits, r.pushed,
-            r.smooth.moved, score.hausdorff_permille, score.mean_permille, score.crease_permille,
-            ms);
+        fmt::print("| {} | {} | {} | {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} |\n", name, ch.id,
+                   variant_name,
+                   method == geo::SharpenMethod::Split
+                       ? std::string("filled on both sides of the curve")
+                       : geo::push_down_summary(r, variant.finish),
+                   score.hausdorff_permille, score.mean_permille, score.crease_permille, ms);
       }
     }
   }

@@ -1204,8 +1204,10 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   ASSERT_TRUE(wait_for_previews(4));
   EXPECT_TRUE(previews[3].snapped());
   EXPECT_EQ(previews[3].guide_size(), 0);  // the guiding surface is only shown before the snap
-  request.set_smooth(true);
+  request.set_smooth(true);                // the default finish: fairing each side of the curve
   ASSERT_TRUE(a.sharp_edge(request, response).is_ok());
+  EXPECT_NE(response.summary().find("patch finished (fair)"), std::string::npos)
+      << response.summary();
   ASSERT_TRUE(replica.wait_for_version(response.version(), 10s).is_ok());
   ASSERT_TRUE(wait_for_previews(5));  // the tool ended
   EXPECT_FALSE(previews[4].active());
@@ -1232,7 +1234,7 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   const auto built = geometry::build_mesh(soup);
   EXPECT_TRUE(built.report.is_clean());
   EXPECT_EQ(built.report.boundary_edges, 0u);
-  // The tool ended with the smoothing; every step is undoable.
+  // The tool ended with the finish; every step is undoable.
   EXPECT_EQ(a.sharp_edge(request, response).code, StatusCode::FailedPrecondition);
   v1::EditResponse undone;
   ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());

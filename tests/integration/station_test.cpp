@@ -442,13 +442,13 @@ TEST(Station, ReplayedSharpEdgePicksPushesAndSmoothsACubeEdge) {
     w.push_back({Vec3(8, sweep % 2 ? 2.6 : 5.4, 8) - 0.4 * diagonal, 1.0, 1});
   }
   w.push_back({Vec3(8, 4, 8) + 1.0 * diagonal, 0.2, 0});
-  w.push_back({Vec3(8, 4, 8) + 1.0 * diagonal, 0.1, 2});  // button 2: smooth
+  w.push_back({Vec3(8, 4, 8) + 1.0 * diagonal, 0.1, 2});  // button 2: finish
   w.push_back({Vec3(8, 4, 8) + 1.5 * diagonal, 0.2, 0});
   ASSERT_NO_FATAL_FAILURE(replay(station, path(s.map, s.workspace, w), s.model, s.workspace));
 
   const app::StationView after = station.view();
   EXPECT_GT(station.pushes(), 0u) << after.status;
-  EXPECT_NE(after.status.find("smoothed after"), std::string::npos) << after.status;
+  EXPECT_NE(after.status.find("patch finished (fair)"), std::string::npos) << after.status;
   EXPECT_TRUE(after.picks.empty());  // the tool finished
   net::RepairClient check(s.server.connect());
   rpc::MeshDocument doc;

@@ -118,6 +118,8 @@ TEST_F(Cli, SharpenRetainsAnEdgeFromFourPoints) {
     EXPECT_TRUE(j["fill"]["filled"].get<bool>());
     if (method == "push-down") {
       EXPECT_GT(j["pushed"].get<int>(), 0);
+      EXPECT_EQ(j["finish"], "fair");  // the default finish
+      EXPECT_EQ(j["finish_undone"], "");
     }
     const auto read = geometry::read_mesh_file(path(method + ".off"));
     ASSERT_TRUE(read.ok);
@@ -132,6 +134,20 @@ TEST_F(Cli, SharpenRetainsAnEdgeFromFourPoints) {
   EXPECT_EQ(
       run("sharpen " + fandisk + out + " --hole 1444 --points " + points + " --depth 0.1").code,
       kExitUsage);  // --depth needs push-down
+  EXPECT_EQ(
+      run("sharpen " + fandisk + out + " --hole 1444 --points " + points + " --finish none").code,
+      kExitUsage);  // so does --finish
+  EXPECT_EQ(run("sharpen " + fandisk + out + " --hole 1444 --points " + points +
+                " --method push-down --finish round")
+                .code,
+            kExitUsage);
+  {
+    const CliRun smooth =
+        run("sharpen " + fandisk + " -o " + path("smooth.off") + " --hole 1444 --points " + points +
+            " --method push-down --finish smooth --json");
+    ASSERT_EQ(smooth.code, 0) << smooth.err;
+    EXPECT_EQ(nlohmann::json::parse(smooth.out)["finish"], "smooth");
+  }
   const CliRun far =
       run("sharpen " + fandisk + out + " --hole 1444 --points '0,0,90;0,0,91;0,0,92;0,0,93'");
   EXPECT_EQ(far.code, kExitBadInput);

@@ -14,6 +14,8 @@
 
 #include "server/geometry/hole_filling.h"
 #include "server/geometry/mesh_build.h"
+#include "server/geometry/sharp_edges.h"
+#include "server/geometry/sharpen.h"
 #include "tests/support/cases.h"
 #include "tests/support/invariants.h"
 
@@ -125,6 +127,39 @@ TEST_P(SharpCases, RetainedCreasesAreCloserToGroundTruth) {
   if (c->name == "fandisk_sharp") {
     EXPECT_EQ(split, 3u);  // every hole's creases found
   }
+}
+
+// Picked points on couplingdown_sharp's stepped bore (hole 1; the first crease pair the
+// detection finds, what an operator would pick): the push-down works, but the thesis'
+// smoothing afterwards folds the patch into the mesh. The finish is undone and reported, and
+// the pushed patch is kept, where the whole edit used to be refused.
+TEST(SharpCasesPicked, FinishThatCrossesTheMeshIsUndoneAndThePushKept) {
+  std::string error;
+  const auto c = testing::load_case("couplingdown_sharp", error);
+  ASSERT_TRUE(c) << error;
+  Mesh mesh = build_mesh(c->holed).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const auto id = testing::matching_hole_id(holes, c->holes.at(1));
+  ASSERT_TRUE(id);
+  const Hole& hole = holes[*find_hole_by_id(holes, *id)];
+  const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
+  const CreaseCurve* pair = nullptr;
+  for (const auto& curve : plan.curves)
+    if (curve.to && pair == nullptr) pair = &curve;
+  ASSERT_NE(pair, nullptr) << plan.summary;
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  SharpenOptions options;
+  options.method = SharpenMethod::PushDown;
+  options.finish = PushFinish::Smooth;
+  const SharpenResult r = sharpen_hole(mesh, hole, pair->points, options);
+  ASSERT_TRUE(r.ok) << r.failure;
+  EXPECT_GT(r.pushed, 0u);
+  EXPECT_NE(r.finish_undone.find("intersect"), std::string::npos) << r.finish_undone;
+  EXPECT_NE(push_down_summary(r, options.finish).find("smoothing undone"), std::string::npos);
+  HoleFillReport as_fill = r.fill;
+  as_fill.new_faces = r.patch;
+  const std::string problems = testing::check_fill_invariants(before, mesh, {as_fill}, holes);
+  EXPECT_TRUE(problems.empty()) << problems;
 }
 
 std::vector<std::string> sharp_cases() {
