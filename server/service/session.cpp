@@ -524,20 +524,8 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
       if (!sharp_tool_ || !sharp_tool_->snapped)
         return {StatusCode::FailedPrecondition, "confirm the curve before smoothing"};
       geometry::PushFinish finish;
-      switch (request.finish()) {
-        case v1::PUSH_FINISH_FAIR:
-          finish = geometry::PushFinish::Fair;
-          break;
-        case v1::PUSH_FINISH_SMOOTH:
-          finish = geometry::PushFinish::Smooth;
-          break;
-        case v1::PUSH_FINISH_NONE:
-          finish = geometry::PushFinish::None;
-          break;
-        default:
-          return {StatusCode::InvalidArgument,
-                  "unknown finish " + std::to_string(request.finish())};
-      }
+      if (!to_push_finish(request.finish(), finish))
+        return {StatusCode::InvalidArgument, "unknown finish " + std::to_string(request.finish())};
       SharpEdgeTool tool = *sharp_tool_;
       if (Status s =
               edit(geometry_.sharp_edge_smooth(document_, tool, finish),

@@ -79,6 +79,22 @@ bool to_geometry_format(v1::MeshFormat format, geometry::MeshFormat& out) {
   }
 }
 
+bool to_push_finish(v1::PushFinish finish, geometry::PushFinish& out) {
+  switch (finish) {
+    case v1::PUSH_FINISH_FAIR:
+      out = geometry::PushFinish::Fair;
+      return true;
+    case v1::PUSH_FINISH_SMOOTH:
+      out = geometry::PushFinish::Smooth;
+      return true;
+    case v1::PUSH_FINISH_NONE:
+      out = geometry::PushFinish::None;
+      return true;
+    default:
+      return false;
+  }
+}
+
 geometry::FillOptions to_fill_options(const v1::FillOptions& options) {
   geometry::FillOptions o;
   if (options.refine_iterations() != 0)
@@ -523,20 +539,10 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
   options.hermite.k1 = request.k1();
   options.hermite.k4 = request.k4();
   options.depth = request.depth();
-  switch (request.finish()) {
-    case v1::PUSH_FINISH_SMOOTH:
-      options.finish = geometry::PushFinish::Smooth;
-      break;
-    case v1::PUSH_FINISH_NONE:
-      options.finish = geometry::PushFinish::None;
-      break;
-    case v1::PUSH_FINISH_FAIR:
-      options.finish = geometry::PushFinish::Fair;
-      break;
-    default:
-      outcome.status = {StatusCode::InvalidArgument,
-                        "unknown push-down finish " + std::to_string(request.finish())};
-      return outcome;
+  if (!to_push_finish(request.finish(), options.finish)) {
+    outcome.status = {StatusCode::InvalidArgument,
+                      "unknown push-down finish " + std::to_string(request.finish())};
+    return outcome;
   }
   options.fill = to_fill_options(request.fill());
   sync(document);

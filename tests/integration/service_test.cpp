@@ -1064,6 +1064,11 @@ TEST(Service, SharpenAndSharpAutoFillRetainTheCreaseOverTheWire) {
   bad.set_hole_id(1028);
   bad.set_depth(0.1);
   EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::InvalidArgument);
+  bad = sharpen;  // a finish value this server does not know (a newer client's)
+  bad.set_hole_id(1028);
+  bad.set_method(v1::SHARPEN_PUSH_DOWN);
+  bad.set_finish(static_cast<v1::PushFinish>(7));
+  EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::InvalidArgument);
   // The other holes with --sharp auto: split along their detected creases.
   v1::FillHolesRequest fill;
   fill.set_session_id(info.session_id());
