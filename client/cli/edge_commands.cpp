@@ -150,9 +150,9 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
                      {"split_edges", r.snap.splits},
                      {"pushed", r.pushed},
                      {"finish", geometry::to_string(options.finish)},
-                     {"smoothed", r.smooth.moved},
-                     {"faired", r.fairing.moved},
-                     {"finish_undone", r.finish_undone},
+                     {"smoothed", r.finish.smooth.moved},
+                     {"faired", r.finish.fairing.moved},
+                     {"finish_undone", r.finish.undone},
                      {"patch_faces", r.patch.size()},
                      {"vertices_written", written.vertices_written},
                      {"faces_written", written.faces_written}};

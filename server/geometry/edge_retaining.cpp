@@ -7,6 +7,7 @@
 
 #include "server/geometry/face_set.h"
 #include "server/geometry/fairing.h"
+#include "server/geometry/mesh_intersections.h"
 
 namespace touchmend::geometry {
 namespace {
@@ -487,6 +488,56 @@ CurveFairingReport fair_beside_curve(Mesh& mesh, const SharpEdgeState& state) {
     report.moved += r.free_vertices;
   }
   report.ok = true;
+  return report;
+}
+
+const char* to_string(PushFinish finish) {
+  switch (finish) {
+    case PushFinish::Fair:
+      return "fair";
+    case PushFinish::Smooth:
+      return "smooth";
+    case PushFinish::None:
+      return "none";
+  }
+  return "?";
+}
+
+bool parse_push_finish(std::string_view text, PushFinish& finish) {
+  for (const PushFinish f : {PushFinish::Fair, PushFinish::Smooth, PushFinish::None})
+    if (text == to_string(f)) {
+      finish = f;
+      return true;
+    }
+  return false;
+}
+
+PushFinishReport finish_push(Mesh& mesh, const SharpEdgeState& state, PushFinish finish,
+                             bool check_intersections) {
+  PushFinishReport report;
+  if (finish == PushFinish::None) return report;
+  std::vector<FaceHandle> patch;
+  std::vector<std::pair<VertexHandle, Vec3>> before;
+  for (const FaceHandle f : state.patch) {
+    if (mesh.status(f).deleted()) continue;
+    patch.push_back(f);
+    for (const VertexHandle v : mesh.fv_range(f)) before.emplace_back(v, mesh.point(v));
+  }
+  const char* what = finish == PushFinish::Smooth ? "smoothing" : "fairing";
+  if (finish == PushFinish::Smooth) {
+    report.smooth = smooth_by_normal_propagation(mesh, state);
+  } else {
+    report.fairing = fair_beside_curve(mesh, state);
+    if (!report.fairing.ok) report.undone = "fairing failed: " + report.fairing.failure;
+  }
+  if (report.undone.empty() && check_intersections &&
+      !find_face_intersections(mesh, patch, 1, max_edge_length(mesh)).empty())
+    report.undone = std::string(what) + " would make the patch intersect the mesh";
+  if (!report.undone.empty()) {
+    for (const auto& [v, old] : before) mesh.set_point(v, old);
+    report.smooth = {};
+    report.fairing.moved = 0;
+  }
   return report;
 }
 

@@ -19,6 +19,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "server/geometry/hermite_curve.h"
@@ -140,5 +141,28 @@ struct CurveFairingReport {
 //! marches normals in from the boundary in one pass and accumulates error toward the middle
 //! (measured on the *_sharp cases: README "Sharp edges"). On failure nothing moves.
 CurveFairingReport fair_beside_curve(Mesh& mesh, const SharpEdgeState& state);
+
+//! What shapes the rest of the patch after a push-down.
+enum class PushFinish {
+  Fair,    //!< fair_beside_curve (ALGORITHMS.md §3.4's recommendation)
+  Smooth,  //!< smooth_by_normal_propagation, the thesis' Algorithm VII
+  None,    //!< leave the first fill's shape
+};
+const char* to_string(PushFinish finish);
+bool parse_push_finish(std::string_view text, PushFinish& finish);
+
+struct PushFinishReport {
+  SmoothReport smooth;         //!< PushFinish::Smooth
+  CurveFairingReport fairing;  //!< PushFinish::Fair
+  //! Why the finish was undone (the fairing failed, or the patch would intersect the mesh);
+  //! nothing then moved. Empty: the finish was kept.
+  std::string undone;
+};
+
+//! The finish after the pushes (the batch `sharpen` and the station's last step): shapes the
+//! free vertices by \p finish and undoes it when it fails or, with \p check_intersections,
+//! when the patch would then intersect the mesh; the pushed crease stays either way.
+PushFinishReport finish_push(Mesh& mesh, const SharpEdgeState& state, PushFinish finish,
+                             bool check_intersections);
 
 }  // namespace touchmend::geometry

@@ -61,27 +61,6 @@ const char* to_string(SharpenMethod method) {
   return method == SharpenMethod::Split ? "split" : "push-down";
 }
 
-const char* to_string(PushFinish finish) {
-  switch (finish) {
-    case PushFinish::Fair:
-      return "fair";
-    case PushFinish::Smooth:
-      return "smooth";
-    case PushFinish::None:
-      return "none";
-  }
-  return "?";
-}
-
-bool parse_push_finish(std::string_view text, PushFinish& finish) {
-  for (const PushFinish f : {PushFinish::Fair, PushFinish::Smooth, PushFinish::None})
-    if (text == to_string(f)) {
-      finish = f;
-      return true;
-    }
-  return false;
-}
-
 SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& picks,
                            const SharpenOptions& options) {
   SharpenResult result;
@@ -189,35 +168,13 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
   result.patch.clear();
   for (const FaceHandle f : state.patch)
     if (!mesh.status(f).deleted()) result.patch.push_back(f);
-  const double reach_length = max_edge_length(mesh);
-  const auto crosses = [&] {
-    return options.fill.check_intersections &&
-           !find_face_intersections(mesh, result.patch, 1, reach_length).empty();
-  };
-  if (options.finish != PushFinish::None) {
-    // The finish only shapes the free vertices; if it folds the patch into the mesh (or the
-    // fairing cannot be solved), the pushed patch is kept without it: the crease the operator
-    // asked for is there either way.
-    std::vector<std::pair<VertexHandle, Vec3>> before;
-    for (const FaceHandle f : result.patch)
-      for (const VertexHandle v : mesh.fv_range(f)) before.emplace_back(v, mesh.point(v));
-    if (options.finish == PushFinish::Smooth) {
-      result.smooth = smooth_by_normal_propagation(mesh, state);
-    } else {
-      result.fairing = fair_beside_curve(mesh, state);
-      if (!result.fairing.ok) result.finish_undone = "fairing failed: " + result.fairing.failure;
-    }
-    if (result.finish_undone.empty() && crosses())
-      result.finish_undone =
-          fmt::format("{} would make the patch intersect the mesh",
-                      options.finish == PushFinish::Smooth ? "smoothing" : "fairing");
-    if (!result.finish_undone.empty()) {
-      for (const auto& [v, old] : before) mesh.set_point(v, old);
-      result.smooth = {};
-      result.fairing.moved = 0;
-    }
-  }
-  if (crosses()) {
+  // The finish only shapes the free vertices; if it fails or folds the patch into the mesh it
+  // is undone and the pushed patch kept: the crease the operator asked for is there either way.
+  result.finish = finish_push(mesh, state, options.finish, options.fill.check_intersections);
+  // A finish that was kept was checked with the pushes in place; otherwise check the pushes.
+  const bool checked = options.finish != PushFinish::None && result.finish.undone.empty();
+  if (options.fill.check_intersections && !checked &&
+      !find_face_intersections(mesh, result.patch, 1, max_edge_length(mesh)).empty()) {
     result.failure =
         "the retained edge makes the patch intersect the mesh (check the picked points and the "
         "depth)";
@@ -233,12 +190,12 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
 std::string push_down_summary(const SharpenResult& result, PushFinish finish) {
   std::string text = fmt::format("{} snapped, {} split, {} pushed", result.snap.moved,
                                  result.snap.splits, result.pushed);
-  if (!result.finish_undone.empty())
+  const PushFinishReport& f = result.finish;
+  if (!f.undone.empty())
     return text + fmt::format(", {} undone: {}",
-                              finish == PushFinish::Smooth ? "smoothing" : "fairing",
-                              result.finish_undone);
-  if (finish == PushFinish::Smooth) return text + fmt::format(", {} smoothed", result.smooth.moved);
-  if (finish == PushFinish::Fair) return text + fmt::format(", {} faired", result.fairing.moved);
+                              finish == PushFinish::Smooth ? "smoothing" : "fairing", f.undone);
+  if (finish == PushFinish::Smooth) return text + fmt::format(", {} smoothed", f.smooth.moved);
+  if (finish == PushFinish::Fair) return text + fmt::format(", {} faired", f.fairing.moved);
   return text;
 }
 

@@ -10,7 +10,6 @@
 
 #include <optional>
 #include <string>
-#include <string_view>
 
 #include "server/geometry/edge_retaining.h"
 #include "server/geometry/hole_filling.h"
@@ -20,15 +19,6 @@ namespace touchmend::geometry {
 
 enum class SharpenMethod { PushDown, Split };
 const char* to_string(SharpenMethod method);
-
-//! What shapes the rest of the patch after a push-down.
-enum class PushFinish {
-  Fair,    //!< fair_beside_curve: each side faired with the curve held (ALGORITHMS.md §3.4)
-  Smooth,  //!< Algorithm VII, the thesis' smoothing by normal propagation
-  None,    //!< leave the first fill's shape
-};
-const char* to_string(PushFinish finish);
-bool parse_push_finish(std::string_view text, PushFinish& finish);
 
 struct SharpenOptions {
   //! Split by default: closer to the ground truth on every *_sharp case where both apply, and
@@ -57,11 +47,7 @@ struct SharpenResult {
   HoleFillReport fill;
   SnapReport snap;
   std::size_t pushed = 0;
-  SmoothReport smooth;         //!< PushFinish::Smooth
-  CurveFairingReport fairing;  //!< PushFinish::Fair
-  //! Why the finish was undone (it made the patch intersect the mesh, or fairing failed): the
-  //! pushed patch is kept as it was before the finish. Empty: the finish was kept.
-  std::string finish_undone;
+  PushFinishReport finish;        //!< push-down: what the finish did, or why it was undone
   std::vector<FaceHandle> patch;  //!< the hole's faces at the end
 };
 

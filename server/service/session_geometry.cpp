@@ -1013,29 +1013,17 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_smooth(const rpc::MeshD
   auto state = tool_state_of(document, tool, outcome);
   if (!state) return outcome;
   const std::map<int, geometry::Vec3> before = patch_positions(*state);
-  if (finish == geometry::PushFinish::Smooth) {
-    geometry::smooth_by_normal_propagation(mesh_, *state);
-  } else if (finish == geometry::PushFinish::Fair) {
-    const geometry::CurveFairingReport faired = geometry::fair_beside_curve(mesh_, *state);
-    if (!faired.ok) {
-      outcome.status = {StatusCode::FailedPrecondition, "fairing failed: " + faired.failure};
-      return outcome;
-    }
-  }
+  // A finish that fails or folds the patch into the mesh is undone there and refused here.
+  const geometry::PushFinishReport finished =
+      geometry::finish_push(mesh_, *state, finish, /*check_intersections=*/true);
   holes_.reset();
+  if (!finished.undone.empty()) {
+    outcome.status = {StatusCode::FailedPrecondition, finished.undone};
+    return outcome;
+  }
   std::vector<VertexHandle> moved;
   for (const auto& [index, old] : before)
     if (mesh_.point(VertexHandle(index)) != old) moved.push_back(VertexHandle(index));
-  // A smoothing that folds the patch into the mesh is refused.
-  if (!geometry::find_face_intersections(mesh_, state->patch, 1, geometry::max_edge_length(mesh_))
-           .empty()) {
-    for (const auto& [index, old] : before) mesh_.set_point(VertexHandle(index), old);
-    outcome.status = {
-        StatusCode::FailedPrecondition,
-        fmt::format("{} would make the patch intersect the mesh",
-                    finish == geometry::PushFinish::Smooth ? "smoothing" : "fairing")};
-    return outcome;
-  }
   outcome.delta = move_delta(document, moved);
   pending_vertex_map_.clear();
   pending_face_map_.clear();

@@ -235,9 +235,9 @@ TEST(Sharpen, FairFinishLaysEachSideOfTheEdgeOntoItsFace) {
     const SharpenResult r =
         sharpen_hole(mesh, holes[0], {{8, 0.5, 8}, {8, 2, 8}, {8, 6, 8}, {8, 7.5, 8}}, options);
     ASSERT_TRUE(r.ok) << to_string(finish) << ": " << r.failure;
-    EXPECT_TRUE(r.finish_undone.empty()) << to_string(finish) << ": " << r.finish_undone;
+    EXPECT_TRUE(r.finish.undone.empty()) << to_string(finish) << ": " << r.finish.undone;
     if (finish == PushFinish::Fair) {
-      EXPECT_GT(r.fairing.moved, 0u);
+      EXPECT_GT(r.finish.fairing.moved, 0u);
     }
     EXPECT_TRUE(validate_mesh(mesh).is_clean()) << to_string(finish);
     EXPECT_TRUE(find_face_intersections(mesh, r.patch).empty()) << to_string(finish);

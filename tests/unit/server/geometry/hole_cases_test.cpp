@@ -154,7 +154,7 @@ TEST(SharpCasesPicked, FinishThatCrossesTheMeshIsUndoneAndThePushKept) {
   const SharpenResult r = sharpen_hole(mesh, hole, pair->points, options);
   ASSERT_TRUE(r.ok) << r.failure;
   EXPECT_GT(r.pushed, 0u);
-  EXPECT_NE(r.finish_undone.find("intersect"), std::string::npos) << r.finish_undone;
+  EXPECT_NE(r.finish.undone.find("intersect"), std::string::npos) << r.finish.undone;
   EXPECT_NE(push_down_summary(r, options.finish).find("smoothing undone"), std::string::npos);
   HoleFillReport as_fill = r.fill;
   as_fill.new_faces = r.patch;
