@@ -82,7 +82,8 @@ struct SharpenArgs {
   double k1 = 0, k4 = 0;
   double depth = 0;
   std::string method = "split";
-  std::string finish;  //!< push-down only: fair, smooth or none (empty: fair)
+  std::string finish;               //!< push-down only: fair, smooth or none (empty: fair)
+  std::string tangents = "crease";  //!< crease or chord
   std::string shape = "auto";
   int refine_iterations = 3;
   bool json = false;

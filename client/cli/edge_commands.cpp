@@ -114,6 +114,10 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
     err << "error: --shape must be flat, fair or auto\n";
     return kExitUsage;
   }
+  if (!geometry::parse_pick_tangents(args.tangents, options.tangents)) {
+    err << "error: --tangents must be crease or chord\n";
+    return kExitUsage;
+  }
   options.fill.refine_iterations = args.refine_iterations;
   options.hermite.k1 = args.k1;
   options.hermite.k4 = args.k4;
@@ -138,27 +142,31 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
   geometry::WriteResult written;
   if (!write_result(mesh, args.output, args.binary, err, written)) return kExitBadInput;
   if (args.json) {
-    nlohmann::json j{{"input", args.file},
-                     {"output", args.output},
-                     {"hole", args.hole},
-                     {"method", geometry::to_string(options.method)},
-                     {"points",
-                      {point_json(r.points.p1), point_json(r.points.p2), point_json(r.points.p3),
-                       point_json(r.points.p4)}},
-                     {"fill", to_json(r.fill)},
-                     {"snapped", r.snap.moved},
-                     {"split_edges", r.snap.splits},
-                     {"pushed", r.pushed},
-                     {"finish", geometry::to_string(options.finish)},
-                     {"smoothed", r.finish.smooth.moved},
-                     {"faired", r.finish.fairing.moved},
-                     {"finish_undone", r.finish.undone},
-                     {"patch_faces", r.patch.size()},
-                     {"vertices_written", written.vertices_written},
-                     {"faces_written", written.faces_written}};
+    nlohmann::json j{
+        {"input", args.file},
+        {"output", args.output},
+        {"hole", args.hole},
+        {"method", geometry::to_string(options.method)},
+        {"points",
+         {point_json(r.points.p1), point_json(r.points.p2), point_json(r.points.p3),
+          point_json(r.points.p4)}},
+        {"tangents", geometry::to_string(options.tangents)},
+        {"crease_tangents", {{"start", r.crease_tangent_start}, {"end", r.crease_tangent_end}}},
+        {"fill", to_json(r.fill)},
+        {"snapped", r.snap.moved},
+        {"split_edges", r.snap.splits},
+        {"pushed", r.pushed},
+        {"finish", geometry::to_string(options.finish)},
+        {"smoothed", r.finish.smooth.moved},
+        {"faired", r.finish.fairing.moved},
+        {"finish_undone", r.finish.undone},
+        {"patch_faces", r.patch.size()},
+        {"vertices_written", written.vertices_written},
+        {"faces_written", written.faces_written}};
     out << j.dump(2) << "\n";
   } else {
     out << fill_text(r.fill);
+    out << "curve: " << geometry::tangents_summary(r, options.tangents) << "\n";
     if (options.method == geometry::SharpenMethod::PushDown)
       out << fmt::format(
           "sharp edge retained (push-down{}): {}\n",

@@ -149,6 +149,14 @@ int main(int argc, char** argv) {
                    "the patch intersect the mesh is undone and reported")
       ->check(CLI::IsMember({"fair", "smooth", "none"}));
   sharpen_cmd
+      ->add_option("--tangents", sharpen.tangents,
+                   "Where the curve's end directions come from: crease (default: where P1 (P4)\n"
+                   "lies on a crease that reaches the rim at P2's (P3's) boundary vertex, that\n"
+                   "crease's fitted tangent, so an unsteady pick does not bend the curve; the\n"
+                   "chord elsewhere) or chord (the thesis: unit(P2-P1), unit(P4-P3))")
+      ->check(CLI::IsMember({"crease", "chord"}))
+      ->capture_default_str();
+  sharpen_cmd
       ->add_option("--depth", sharpen.depth,
                    "push-down only: push this far past the curve (free-form edges)")
       ->check(CLI::NonNegativeNumber);

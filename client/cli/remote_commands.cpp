@@ -545,6 +545,12 @@ int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::o
   request.set_k4(args.k4);
   request.set_method(args.method == "push-down" ? v1::SHARPEN_PUSH_DOWN : v1::SHARPEN_SPLIT);
   request.set_depth(args.depth);
+  if (args.tangents != "crease" && args.tangents != "chord") {
+    err << "error: --tangents must be crease or chord\n";
+    return kExitUsage;
+  }
+  request.set_tangents(args.tangents == "chord" ? v1::PICK_TANGENTS_CHORD
+                                                : v1::PICK_TANGENTS_CREASE);
   FillArgs fill;
   fill.all = true;
   fill.shape = args.shape;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <set>
@@ -9,6 +10,7 @@
 #include <Eigen/Dense>
 #include <fmt/format.h>
 
+#include "server/geometry/intersection.h"
 #include "server/geometry/liepa_triangulation.h"
 #include "server/geometry/planar_triangulation.h"
 #include "server/geometry/projection.h"
@@ -155,6 +157,30 @@ bool interleaved(std::size_t a, std::size_t b, std::size_t c, std::size_t d) {
 
 }  // namespace
 
+std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
+                                           double angle_deg, double tolerance, double fit_length) {
+  if (!at.is_valid() || !std::isfinite(tolerance) || !(tolerance > 0)) return std::nullopt;
+  const Vec3& origin = mesh.point(at);
+  // Far enough to pass the pick; the trace ends earlier where the crease does.
+  const double budget = std::max(1.5 * (pick - origin).norm() + tolerance, fit_length);
+  std::optional<Vec3> best;
+  double best_distance2 = tolerance * tolerance;
+  for (const HalfedgeHandle h : mesh.voh_range(at)) {
+    if (!is_sharp(mesh, h, angle_deg)) continue;
+    const std::vector<Vec3> polyline = trace_crease(mesh, h, angle_deg, budget);
+    double distance2 = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 1; i < polyline.size(); ++i)
+      distance2 =
+          std::min(distance2, segment_segment_distance2(polyline[i - 1], polyline[i], pick, pick));
+    if (!(distance2 <= best_distance2)) continue;
+    const Vec3 tangent = fitted_tangent(polyline, fit_length);
+    if (!(tangent.norm() > 0)) continue;
+    best_distance2 = distance2;
+    best = tangent;
+  }
+  return best;
+}
+
 HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const CreaseOptions& options) {
   HoleCreasePlan plan;
   const std::size_t n = hole.loop.size();
@@ -190,6 +216,17 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       c.position = mesh.point(b);
       c.inward = inward;
       c.far_point = c.position - fit_length * inward;
+      c.on_crease = polyline.back();
+      double walked = 0;
+      for (std::size_t k = 1; k < polyline.size(); ++k) {
+        const double step = (polyline[k] - polyline[k - 1]).norm();
+        if (walked + step >= fit_length) {
+          c.on_crease =
+              polyline[k - 1] + (fit_length - walked) / step * (polyline[k] - polyline[k - 1]);
+          break;
+        }
+        walked += step;
+      }
       c.dihedral_deg = dihedral_deg(mesh, h);
       // Convex (a ridge) when the face on one side sees the other side's far vertex below it.
       const FaceHandle f0 = mesh.face_handle(h);

@@ -8,6 +8,7 @@
 
 #include "server/geometry/bvh.h"
 #include "server/geometry/mesh_intersections.h"
+#include "server/geometry/sharp_edges.h"
 
 namespace touchmend::geometry {
 namespace {
@@ -55,7 +56,53 @@ std::size_t nearest_loop_index(const Mesh& mesh, const Hole& hole, const Vec3& p
   return best;
 }
 
+//! PickTangents::Crease: P1 (P4) moved onto the tangent line of the crease it lies on, at its
+//! distance from P2 (P3), where that crease reaches the rim at loop vertex \p start (\p end).
+void take_crease_tangents(const Mesh& mesh, const Hole& hole, std::optional<std::size_t> start,
+                          std::optional<std::size_t> end, const SharpenOptions& options,
+                          HermitePoints& p, SharpenResult& result) {
+  if (options.tangents != PickTangents::Crease) return;
+  // The automatic plan's fit length (plan_hole_creases), so a pair picked on the creases it
+  // pairs gets its curve.
+  const double diameter = hole.perimeter / std::numbers::pi;
+  const double fit_length =
+      std::max(CreaseOptions{}.fit_length * diameter, 2.5 * hole.mean_edge_length);
+  const double tolerance = options.crease_pick_tolerance * hole.mean_edge_length;
+  if (start) {
+    const auto t = crease_tangent_towards(mesh, hole.loop[*start], p.p1, options.crease_angle_deg,
+                                          tolerance, fit_length);
+    if (t) {
+      p.p1 = p.p2 + (p.p1 - p.p2).norm() * *t;
+      result.crease_tangent_start = true;
+    }
+  }
+  if (end) {
+    const auto t = crease_tangent_towards(mesh, hole.loop[*end], p.p4, options.crease_angle_deg,
+                                          tolerance, fit_length);
+    if (t) {
+      p.p4 = p.p3 + (p.p4 - p.p3).norm() * *t;
+      result.crease_tangent_end = true;
+    }
+  }
+}
+
 }  // namespace
+
+const char* to_string(PickTangents tangents) {
+  return tangents == PickTangents::Crease ? "crease" : "chord";
+}
+
+bool parse_pick_tangents(const std::string& text, PickTangents& out) {
+  if (text == "crease") {
+    out = PickTangents::Crease;
+    return true;
+  }
+  if (text == "chord") {
+    out = PickTangents::Chord;
+    return true;
+  }
+  return false;
+}
 
 const char* to_string(SharpenMethod method) {
   return method == SharpenMethod::Split ? "split" : "push-down";
@@ -96,6 +143,7 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
     }
     p.p2 = mesh.point(hole.loop[i2]);
     p.p3 = mesh.point(hole.loop[i3]);
+    take_crease_tangents(mesh, hole, i2, i3, options, p, result);
     const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
     if (!curve.curve) {
       result.failure = curve.failure;
@@ -126,6 +174,16 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
     return result;
   }
 
+  // P2 and P3 stay where they were picked; a crease's tangent is taken where one reaches the
+  // rim next to them.
+  const auto rim_vertex = [&](const Vec3& q) -> std::optional<std::size_t> {
+    const std::size_t i = nearest_loop_index(mesh, hole, q);
+    if ((mesh.point(hole.loop[i]) - q).norm() <=
+        options.crease_pick_tolerance * hole.mean_edge_length)
+      return i;
+    return std::nullopt;
+  };
+  take_crease_tangents(mesh, hole, rim_vertex(p.p2), rim_vertex(p.p3), options, p, result);
   const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
   if (!curve.curve) {
     result.failure = curve.failure;
@@ -197,6 +255,15 @@ std::string push_down_summary(const SharpenResult& result, PushFinish finish) {
   if (finish == PushFinish::Smooth) return text + fmt::format(", {} smoothed", f.smooth.moved);
   if (finish == PushFinish::Fair) return text + fmt::format(", {} faired", f.fairing.moved);
   return text;
+}
+
+std::string tangents_summary(const SharpenResult& result, PickTangents tangents) {
+  if (tangents == PickTangents::Chord) return "chord tangents";
+  const bool start = result.crease_tangent_start, end = result.crease_tangent_end;
+  if (start && end) return "tangents of the crease at both ends";
+  if (start) return "tangent of the crease at P2, the chord at P3 (P4 is on no crease from P3)";
+  if (end) return "tangent of the crease at P3, the chord at P2 (P1 is on no crease from P2)";
+  return "chord tangents (P1 and P4 are on no crease that reaches the rim at P2 and P3)";
 }
 
 }  // namespace touchmend::geometry

@@ -20,6 +20,17 @@ namespace touchmend::geometry {
 enum class SharpenMethod { PushDown, Split };
 const char* to_string(SharpenMethod method);
 
+//! Where the Hermite curve's end tangents come from.
+enum class PickTangents {
+  //! The thesis' unit(P2 - P1) and unit(P4 - P3) (seed 000 §4.2.1).
+  Chord,
+  //! Where P1 (P4) lies on a crease that reaches the rim at P2's (P3's) boundary vertex, that
+  //! crease's fitted tangent there (crease_tangent_towards); the chord elsewhere.
+  Crease,
+};
+const char* to_string(PickTangents tangents);
+bool parse_pick_tangents(const std::string& text, PickTangents& out);
+
 struct SharpenOptions {
   //! Split by default: closer to the ground truth on every *_sharp case where both apply, and
   //! it never folds the patch (README "Sharp edges"). PushDown is the thesis' tool.
@@ -37,12 +48,27 @@ struct SharpenOptions {
   PushFinish finish = PushFinish::Fair;
   //! Picks farther than this (in hole diameters) from the hole's surroundings are refused.
   double max_pick_distance = 2.0;
+  //! Crease by default: seed 000 §5 found that one pick on a badly oriented triangle biases
+  //! the curve; the crease the picks point at does not (rocker-arm_sharp with the picks an
+  //! operator would make: README "Sharp edges").
+  PickTangents tangents = PickTangents::Crease;
+  //! PickTangents::Crease: an edge sharper than this may carry the crease (the weaker partner
+  //! angle of the automatic plan, so a crease fading towards the hole still counts).
+  double crease_angle_deg = 30.0;
+  //! PickTangents::Crease: P1 (P4) counts as on the crease within this many mean boundary edge
+  //! lengths of it.
+  double crease_pick_tolerance = 1.0;
 };
 
 struct SharpenResult {
   bool ok = false;
   std::string failure;
-  HermitePoints points;  //!< the picks, snapped to the surface (P2, P3 onto the boundary for split)
+  //! The curve's points: the picks snapped to the surface (P2, P3 onto the boundary for split),
+  //! P1 (P4) moved onto the crease's tangent line, at the same distance, where it was taken.
+  HermitePoints points;
+  //! Which ends took the tangent of the crease the picks point at (PickTangents::Crease).
+  bool crease_tangent_start = false;
+  bool crease_tangent_end = false;
   std::optional<GuideSurface> guide;
   HoleFillReport fill;
   SnapReport snap;
@@ -60,5 +86,9 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
 //! One line on what a push-down did, for reports: "4 snapped, 2 split, 10 pushed, 43 faired"
 //! (or "..., fairing undone: <why>").
 std::string push_down_summary(const SharpenResult& result, PushFinish finish);
+
+//! One line on where the curve's end directions came from, for reports: "tangents of the
+//! crease at both ends", "... at P2, the chord at P3", "chord tangents".
+std::string tangents_summary(const SharpenResult& result, PickTangents tangents);
 
 }  // namespace touchmend::geometry

@@ -544,6 +544,18 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
                       "unknown push-down finish " + std::to_string(request.finish())};
     return outcome;
   }
+  switch (request.tangents()) {
+    case v1::PICK_TANGENTS_CREASE:
+      options.tangents = geometry::PickTangents::Crease;
+      break;
+    case v1::PICK_TANGENTS_CHORD:
+      options.tangents = geometry::PickTangents::Chord;
+      break;
+    default:
+      outcome.status = {StatusCode::InvalidArgument,
+                        "unknown pick tangents " + std::to_string(request.tangents())};
+      return outcome;
+  }
   options.fill = to_fill_options(request.fill());
   sync(document);
   const auto hole = hole_by_doc_id(request.hole_id());
@@ -574,10 +586,11 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
     for (const VertexHandle v : mesh_.fv_range(f))
       if (is_new(v) && seen.insert(v.idx()).second) vertices.push_back(v);
   summary = options.method == geometry::SharpenMethod::PushDown
-                ? fmt::format("sharp edge retained on hole {} (push-down: {})", request.hole_id(),
-                              geometry::push_down_summary(r, options.finish))
-                : fmt::format("sharp edge retained on hole {} (split along the curve)",
-                              request.hole_id());
+                ? fmt::format("sharp edge retained on hole {} (push-down: {}; {})",
+                              request.hole_id(), geometry::push_down_summary(r, options.finish),
+                              geometry::tangents_summary(r, options.tangents))
+                : fmt::format("sharp edge retained on hole {} (split along the curve; {})",
+                              request.hole_id(), geometry::tangents_summary(r, options.tangents));
   outcome.delta = edit_delta(document, std::move(vertices), r.patch, first_free);
   return outcome;
 }

@@ -101,6 +101,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 2));
   app.add_option("--feature-angle", feature_angle, "touchmend auto-shape crease angle (degrees)");
   std::string method;
+  double crease_angle = -1;
+  app.add_option("--crease-angle", crease_angle,
+                 "touchmend --crease-angle: dihedral angle of a crease for --sharp auto (degrees)");
   std::string sharp = "auto";
   app.add_option("--sharp", sharp, "touchmend --sharp (crease retaining)")
       ->check(CLI::IsMember({"off", "auto"}));
@@ -116,6 +119,7 @@ int main(int argc, char** argv) {
   geo::parse_sharp_mode(sharp, options.sharp);
   options.refine_iterations = refine;
   if (feature_angle > 0) options.feature_angle_deg = feature_angle;
+  if (crease_angle > 0) options.creases.crease_angle_deg = crease_angle;
   options.fairing.weights =
       weights == "uniform" ? geo::FairingWeights::Uniform : geo::FairingWeights::Cotangent;
   options.fairing.continuity = continuity;

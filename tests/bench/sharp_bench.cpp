@@ -38,6 +38,10 @@ int main(int argc, char** argv) {
   double crease_angle = 50;
   app.add_option("--cases", only, "Only these cases (default: every case whose name has _sharp)");
   app.add_option("--crease-angle", crease_angle, "Dihedral angle of a crease (degrees)");
+  double pick_offset = 0;
+  app.add_option("--pick-offset", pick_offset,
+                 "Picked points: P1 and P4 this many mean boundary edge lengths beside the crease "
+                 "(an unsteady hand)");
   bool verbose = false;
   app.add_flag("--verbose", verbose, "Print each hole's crease crossings and fill warnings");
   CLI11_PARSE(app, argc, argv);
@@ -118,11 +122,15 @@ int main(int argc, char** argv) {
       }
     }
   }
-  // Picked points: the four points of the first crease pair the detection finds (what an
-  // operator would pick along the visible crease), through both sharpen variants.
+  // Picked points: for the first crease pair the detection finds, P2 and P3 where the creases
+  // meet the rim and P1, P4 on the creases themselves, the fit length back from it (where an
+  // operator feeling along the crease would pick), through both sharpen variants and, for each,
+  // the thesis' chord tangents and the crease's own.
   fmt::print(
-      "\n| case | hole | picked-points variant | result | H ‰ | mean ‰ | crease H ‰ | ms |\n");
-  fmt::print("|---|---|---|---|---|---|---|---|\n");
+      "\n| case | hole | picked-points variant | tangents | result | H ‰ | mean ‰ | crease H ‰ | "
+      "ms "
+      "|\n");
+  fmt::print("|---|---|---|---|---|---|---|---|---|\n");
   for (const tmd::testing::HoleCase& loaded : cases) {
     const std::string& name = loaded.name;
     const tmd::testing::HoleCase* c = &loaded;
@@ -136,49 +144,65 @@ int main(int argc, char** argv) {
             PickedVariant{geo::SharpenMethod::PushDown, geo::PushFinish::Smooth},
             PickedVariant{geo::SharpenMethod::PushDown, geo::PushFinish::None},
             PickedVariant{geo::SharpenMethod::Split, geo::PushFinish::None}}) {
-        const geo::SharpenMethod method = variant.method;
-        const std::string variant_name =
-            method == geo::SharpenMethod::Split
-                ? std::string("split")
-                : fmt::format("push-down, finish {}", geo::to_string(variant.finish));
-        geo::Mesh mesh = geo::build_mesh(c->holed).mesh;
-        const auto holes = geo::find_holes(mesh).holes;
-        const auto id = tmd::testing::matching_hole_id(holes, ch);
-        if (!id) continue;
-        const geo::Hole& hole = holes[*geo::find_hole_by_id(holes, *id)];
-        geo::CreaseOptions co;
-        co.crease_angle_deg = crease_angle;
-        const geo::HoleCreasePlan plan = geo::plan_hole_creases(mesh, hole, co);
-        const geo::CreaseCurve* pair = nullptr;
-        for (const auto& curve : plan.curves)
-          if (curve.to && pair == nullptr) pair = &curve;
-        if (pair == nullptr) {
-          fmt::print("| {} | {} | {} | no crease pair to pick | - | - | - | - |\n", name, ch.id,
-                     variant_name);
-          continue;
+        for (const geo::PickTangents tangents :
+             {geo::PickTangents::Chord, geo::PickTangents::Crease}) {
+          const geo::SharpenMethod method = variant.method;
+          const std::string variant_name =
+              method == geo::SharpenMethod::Split
+                  ? std::string("split")
+                  : fmt::format("push-down, finish {}", geo::to_string(variant.finish));
+          geo::Mesh mesh = geo::build_mesh(c->holed).mesh;
+          const auto holes = geo::find_holes(mesh).holes;
+          const auto id = tmd::testing::matching_hole_id(holes, ch);
+          if (!id) continue;
+          const geo::Hole& hole = holes[*geo::find_hole_by_id(holes, *id)];
+          geo::CreaseOptions co;
+          co.crease_angle_deg = crease_angle;
+          const geo::HoleCreasePlan plan = geo::plan_hole_creases(mesh, hole, co);
+          const geo::CreaseCurve* pair = nullptr;
+          for (const auto& curve : plan.curves)
+            if (curve.to && pair == nullptr) pair = &curve;
+          if (pair == nullptr) {
+            fmt::print("| {} | {} | {} | {} | no crease pair to pick | - | - | - | - |\n", name,
+                       ch.id, variant_name, geo::to_string(tangents));
+            continue;
+          }
+          const geo::CreaseCrossing& from = plan.crossings[pair->from];
+          const geo::CreaseCrossing& to = plan.crossings[*pair->to];
+          geo::HermitePoints picks{from.on_crease, from.position, to.position, to.on_crease};
+          // An unsteady hand: P1 and P4 beside the crease, across it in the hole's plane.
+          const double shift = pick_offset * hole.mean_edge_length;
+          picks.p1 += shift * OpenMesh::cross(from.inward, hole.normal).normalize_cond();
+          picks.p4 += shift * OpenMesh::cross(to.inward, hole.normal).normalize_cond();
+          geo::SharpenOptions so;
+          so.method = method;
+          so.finish = variant.finish;
+          so.tangents = tangents;
+          const auto start = std::chrono::steady_clock::now();
+          const geo::SharpenResult r = geo::sharpen_hole(mesh, hole, picks, so);
+          const double ms =
+              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                  .count();
+          const std::string tangent_name =
+              tangents == geo::PickTangents::Chord
+                  ? std::string("chord")
+                  : fmt::format("crease ({} of 2 ends)",
+                                int{r.crease_tangent_start} + int{r.crease_tangent_end});
+          if (!r.ok) {
+            fmt::print("| {} | {} | {} | {} | FAILED: {} | - | - | - | - |\n", name, ch.id,
+                       variant_name, tangent_name, r.failure);
+            continue;
+          }
+          geo::HoleFillReport as_fill = r.fill;
+          as_fill.new_faces = r.patch;
+          const auto score = tmd::testing::score_fill(mesh, as_fill, *c, ch);
+          fmt::print("| {} | {} | {} | {} | {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} |\n", name,
+                     ch.id, variant_name, tangent_name,
+                     method == geo::SharpenMethod::Split
+                         ? std::string("filled on both sides of the curve")
+                         : geo::push_down_summary(r, variant.finish),
+                     score.hausdorff_permille, score.mean_permille, score.crease_permille, ms);
         }
-        geo::SharpenOptions so;
-        so.method = method;
-        so.finish = variant.finish;
-        const auto start = std::chrono::steady_clock::now();
-        const geo::SharpenResult r = geo::sharpen_hole(mesh, hole, pair->points, so);
-        const double ms =
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                .count();
-        if (!r.ok) {
-          fmt::print("| {} | {} | {} | FAILED: {} | - | - | - | - |\n", name, ch.id, variant_name,
-                     r.failure);
-          continue;
-        }
-        geo::HoleFillReport as_fill = r.fill;
-        as_fill.new_faces = r.patch;
-        const auto score = tmd::testing::score_fill(mesh, as_fill, *c, ch);
-        fmt::print("| {} | {} | {} | {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} |\n", name, ch.id,
-                   variant_name,
-                   method == geo::SharpenMethod::Split
-                       ? std::string("filled on both sides of the curve")
-                       : geo::push_down_summary(r, variant.finish),
-                   score.hausdorff_permille, score.mean_permille, score.crease_permille, ms);
       }
     }
   }

@@ -1053,6 +1053,8 @@ TEST(Service, SharpenAndSharpAutoFillRetainTheCreaseOverTheWire) {
     on_crease += std::abs(x - 4.828) < 1e-3 && std::abs(z) < 1e-3 ? 1 : 0;
   }
   EXPECT_GE(on_crease, 3u);
+  EXPECT_NE(edit.summary().find("tangents of the crease at both ends"), std::string::npos)
+      << edit.summary();
   // Refusals: three points, an unknown hole, depth with the split method.
   v1::SharpenRequest bad = sharpen;
   bad.mutable_points()->RemoveLast();
@@ -1068,6 +1070,10 @@ TEST(Service, SharpenAndSharpAutoFillRetainTheCreaseOverTheWire) {
   bad.set_hole_id(1028);
   bad.set_method(v1::SHARPEN_PUSH_DOWN);
   bad.set_finish(static_cast<v1::PushFinish>(7));
+  EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::InvalidArgument);
+  bad = sharpen;  // likewise an unknown source of tangents
+  bad.set_hole_id(1028);
+  bad.set_tangents(static_cast<v1::PickTangents>(5));
   EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::InvalidArgument);
   // The other holes with --sharp auto: split along their detected creases.
   v1::FillHolesRequest fill;

@@ -116,6 +116,10 @@ TEST_F(Cli, SharpenRetainsAnEdgeFromFourPoints) {
     const auto j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j["method"], method);
     EXPECT_TRUE(j["fill"]["filled"].get<bool>());
+    // P1 and P4 lie on the crease: its tangents are taken at both ends (the default).
+    EXPECT_EQ(j["tangents"], "crease");
+    EXPECT_TRUE(j["crease_tangents"]["start"].get<bool>());
+    EXPECT_TRUE(j["crease_tangents"]["end"].get<bool>());
     if (method == "push-down") {
       EXPECT_GT(j["pushed"].get<int>(), 0);
       EXPECT_EQ(j["finish"], "fair");  // the default finish
@@ -141,6 +145,22 @@ TEST_F(Cli, SharpenRetainsAnEdgeFromFourPoints) {
                 " --method push-down --finish round")
                 .code,
             kExitUsage);
+  EXPECT_EQ(
+      run("sharpen " + fandisk + out + " --hole 1444 --points " + points + " --tangents straight")
+          .code,
+      kExitUsage);
+  {
+    const CliRun chord = run("sharpen " + fandisk + " -o " + path("chord.off") +
+                             " --hole 1444 --points " + points + " --tangents chord --json");
+    ASSERT_EQ(chord.code, 0) << chord.err;
+    const auto j = nlohmann::json::parse(chord.out);
+    EXPECT_EQ(j["tangents"], "chord");
+    EXPECT_FALSE(j["crease_tangents"]["start"].get<bool>());
+    const CliRun text =
+        run("sharpen " + fandisk + " -o " + path("text.off") + " --hole 1444 --points " + points);
+    ASSERT_EQ(text.code, 0) << text.err;
+    EXPECT_NE(text.out.find("tangents of the crease at both ends"), std::string::npos) << text.out;
+  }
   {
     const CliRun smooth =
         run("sharpen " + fandisk + " -o " + path("smooth.off") + " --hole 1444 --points " + points +

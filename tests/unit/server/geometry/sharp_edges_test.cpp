@@ -58,6 +58,35 @@ TEST(SharpEdges, HoleAcrossAnEdgeHasOneCurveAlongIt) {
   }
 }
 
+// The crease a pick points at: from a rim vertex on the cube's edge, a pick on the edge beyond
+// gives the edge's direction exactly, a pick a little off it too (within the tolerance), and a
+// pick on a face away from the edge gives nothing (the caller then keeps the chord). Also
+// CreaseCrossing::on_crease lies on the edge, the fit length from the rim.
+TEST(SharpEdges, CreaseTangentTowardsAPickFollowsTheEdgeItLiesOn) {
+  const Mesh mesh = cube_with_hole(Vec3(kCube, 4, kCube), 2.2);
+  const auto holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  const HoleCreasePlan plan = plan_hole_creases(mesh, holes[0]);
+  ASSERT_EQ(plan.crossings.size(), 2u) << plan.summary;
+  for (const CreaseCrossing& c : plan.crossings) {
+    EXPECT_NEAR(c.on_crease[0], kCube, 1e-9);
+    EXPECT_NEAR(c.on_crease[2], kCube, 1e-9);
+    EXPECT_GT((c.on_crease - c.position).norm(), holes[0].mean_edge_length);
+    // Outside the hole: beyond the rim, against the inward direction.
+    EXPECT_LT(OpenMesh::dot(c.on_crease - c.position, c.inward), 0.0);
+    const double tolerance = holes[0].mean_edge_length;
+    const Vec3 outward = -c.inward;
+    for (const double off : {0.0, 0.5}) {
+      const Vec3 pick = c.position + 1.5 * outward + off * tolerance * Vec3(0, 0, -1);
+      const auto t = crease_tangent_towards(mesh, c.vertex, pick, 30.0, tolerance, 1.0);
+      ASSERT_TRUE(t) << "pick " << off << " edge lengths off the crease";
+      EXPECT_NEAR(OpenMesh::dot(*t, outward), 1.0, 1e-9);
+    }
+    const Vec3 on_face = c.position + 1.5 * outward + Vec3(0, 0, -3 * tolerance);
+    EXPECT_FALSE(crease_tangent_towards(mesh, c.vertex, on_face, 30.0, tolerance, 1.0));
+  }
+}
+
 TEST(SharpEdges, AutoFillKeepsTheEdgeSharp) {
   Mesh mesh = cube_with_hole(Vec3(kCube, 4, kCube), 2.2);
   const auto holes = find_holes(mesh).holes;
