@@ -95,6 +95,19 @@ bool to_push_finish(v1::PushFinish finish, geometry::PushFinish& out) {
   }
 }
 
+bool to_pick_tangents(v1::PickTangents tangents, geometry::PickTangents& out) {
+  switch (tangents) {
+    case v1::PICK_TANGENTS_CREASE:
+      out = geometry::PickTangents::Crease;
+      return true;
+    case v1::PICK_TANGENTS_CHORD:
+      out = geometry::PickTangents::Chord;
+      return true;
+    default:
+      return false;
+  }
+}
+
 geometry::FillOptions to_fill_options(const v1::FillOptions& options) {
   geometry::FillOptions o;
   if (options.refine_iterations() != 0)
@@ -544,17 +557,10 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
                       "unknown push-down finish " + std::to_string(request.finish())};
     return outcome;
   }
-  switch (request.tangents()) {
-    case v1::PICK_TANGENTS_CREASE:
-      options.tangents = geometry::PickTangents::Crease;
-      break;
-    case v1::PICK_TANGENTS_CHORD:
-      options.tangents = geometry::PickTangents::Chord;
-      break;
-    default:
-      outcome.status = {StatusCode::InvalidArgument,
-                        "unknown pick tangents " + std::to_string(request.tangents())};
-      return outcome;
+  if (!to_pick_tangents(request.tangents(), options.tangents)) {
+    outcome.status = {StatusCode::InvalidArgument,
+                      "unknown pick tangents " + std::to_string(request.tangents())};
+    return outcome;
   }
   options.fill = to_fill_options(request.fill());
   sync(document);

@@ -62,6 +62,8 @@ bool to_geometry_format(v1::MeshFormat format, geometry::MeshFormat& out);
 geometry::FillOptions to_fill_options(const v1::FillOptions& options);
 //! False for a value this build does not know (a newer client).
 bool to_push_finish(v1::PushFinish finish, geometry::PushFinish& out);
+//! False for a value this build does not know (a newer client).
+bool to_pick_tangents(v1::PickTangents tangents, geometry::PickTangents& out);
 void to_proto(const geometry::ValidationReport& report, v1::ValidationSummary& out);
 void to_proto(const geometry::HoleFillReport& report, v1::HoleFillResult& out);
 

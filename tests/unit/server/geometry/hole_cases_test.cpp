@@ -129,39 +129,6 @@ TEST_P(SharpCases, RetainedCreasesAreCloserToGroundTruth) {
   }
 }
 
-// Picked points on couplingdown_sharp's stepped bore (hole 1; the first crease pair the
-// detection finds, what an operator would pick): the push-down works, but the thesis'
-// smoothing afterwards folds the patch into the mesh. The finish is undone and reported, and
-// the pushed patch is kept, where the whole edit used to be refused.
-TEST(SharpCasesPicked, FinishThatCrossesTheMeshIsUndoneAndThePushKept) {
-  std::string error;
-  const auto c = testing::load_case("couplingdown_sharp", error);
-  ASSERT_TRUE(c) << error;
-  Mesh mesh = build_mesh(c->holed).mesh;
-  const auto holes = find_holes(mesh).holes;
-  const auto id = testing::matching_hole_id(holes, c->holes.at(1));
-  ASSERT_TRUE(id);
-  const Hole& hole = holes[*find_hole_by_id(holes, *id)];
-  const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
-  const CreaseCurve* pair = nullptr;
-  for (const auto& curve : plan.curves)
-    if (curve.to && pair == nullptr) pair = &curve;
-  ASSERT_NE(pair, nullptr) << plan.summary;
-  const testing::Snapshot before = testing::take_snapshot(mesh);
-  SharpenOptions options;
-  options.method = SharpenMethod::PushDown;
-  options.finish = PushFinish::Smooth;
-  const SharpenResult r = sharpen_hole(mesh, hole, pair->points, options);
-  ASSERT_TRUE(r.ok) << r.failure;
-  EXPECT_GT(r.pushed, 0u);
-  EXPECT_NE(r.finish.undone.find("intersect"), std::string::npos) << r.finish.undone;
-  EXPECT_NE(push_down_summary(r, options.finish).find("smoothing undone"), std::string::npos);
-  HoleFillReport as_fill = r.fill;
-  as_fill.new_faces = r.patch;
-  const std::string problems = testing::check_fill_invariants(before, mesh, {as_fill}, holes);
-  EXPECT_TRUE(problems.empty()) << problems;
-}
-
 //! Fills case hole \p case_hole of \p c by sharpen_hole from picks an operator would make on
 //! the first crease pair the detection finds: P2, P3 where the creases meet the rim, P1, P4 on
 //! the creases, moved sideways (across the crease, in the hole's plane) by \p offset mean
@@ -201,6 +168,26 @@ PickedScore sharpen_picked(const testing::HoleCase& c, std::size_t case_hole,
   EXPECT_TRUE(problems.empty()) << problems;
   out.score = testing::score_fill(mesh, as_fill, c, c.holes.at(case_hole));
   return out;
+}
+
+// Picked points on couplingdown_sharp's stepped bore (hole 1; the first crease pair the
+// detection finds, picked on the creases): the push-down works, but the thesis' smoothing
+// afterwards folds the patch into the mesh. The finish is undone and reported, and the pushed
+// patch is kept (sharpen_picked checks every fill invariant), where the whole edit used to be
+// refused.
+TEST(SharpCasesPicked, FinishThatCrossesTheMeshIsUndoneAndThePushKept) {
+  std::string error;
+  const auto c = testing::load_case("couplingdown_sharp", error);
+  ASSERT_TRUE(c) << error;
+  SharpenOptions options;
+  options.method = SharpenMethod::PushDown;
+  options.finish = PushFinish::Smooth;
+  const PickedScore picked = sharpen_picked(*c, 1, options);
+  const SharpenResult& r = picked.result;
+  ASSERT_TRUE(r.ok) << r.failure;
+  EXPECT_GT(r.pushed, 0u);
+  EXPECT_NE(r.finish.undone.find("intersect"), std::string::npos) << r.finish.undone;
+  EXPECT_NE(push_down_summary(r, options.finish).find("smoothing undone"), std::string::npos);
 }
 
 // The test of picked points: on the rocker arm's crease hole, four points picked on the
