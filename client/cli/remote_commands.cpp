@@ -12,6 +12,7 @@
 #include "client/cli/commands.h"
 #include "client/net/repair_client.h"
 #include "server/geometry/mesh_io.h"
+#include "server/geometry/sharpen.h"
 
 namespace touchmend::cli {
 namespace {
@@ -534,10 +535,23 @@ int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::o
     err << "error: --finish applies to --method push-down\n";
     return kExitUsage;
   }
+  // The same parsers as the local command, then the wire's enums.
+  geometry::PushFinish finish = geometry::PushFinish::Fair;
+  if (!args.finish.empty() && !geometry::parse_push_finish(args.finish, finish)) {
+    err << "error: --finish must be fair, smooth or none\n";
+    return kExitUsage;
+  }
+  geometry::PickTangents tangents = geometry::PickTangents::Crease;
+  if (!geometry::parse_pick_tangents(args.tangents, tangents)) {
+    err << "error: --tangents must be crease or chord\n";
+    return kExitUsage;
+  }
   v1::SharpenRequest request;
-  request.set_finish(args.finish == "smooth" ? v1::PUSH_FINISH_SMOOTH
-                     : args.finish == "none" ? v1::PUSH_FINISH_NONE
-                                             : v1::PUSH_FINISH_FAIR);
+  request.set_finish(finish == geometry::PushFinish::Smooth ? v1::PUSH_FINISH_SMOOTH
+                     : finish == geometry::PushFinish::None ? v1::PUSH_FINISH_NONE
+                                                            : v1::PUSH_FINISH_FAIR);
+  request.set_tangents(tangents == geometry::PickTangents::Chord ? v1::PICK_TANGENTS_CHORD
+                                                                 : v1::PICK_TANGENTS_CREASE);
   request.set_hole_id(args.hole);
   for (const auto& p : {points.p1, points.p2, points.p3, points.p4})
     *request.add_points() = wire_point(p);
@@ -545,12 +559,6 @@ int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::o
   request.set_k4(args.k4);
   request.set_method(args.method == "push-down" ? v1::SHARPEN_PUSH_DOWN : v1::SHARPEN_SPLIT);
   request.set_depth(args.depth);
-  if (args.tangents != "crease" && args.tangents != "chord") {
-    err << "error: --tangents must be crease or chord\n";
-    return kExitUsage;
-  }
-  request.set_tangents(args.tangents == "chord" ? v1::PICK_TANGENTS_CHORD
-                                                : v1::PICK_TANGENTS_CREASE);
   FillArgs fill;
   fill.all = true;
   fill.shape = args.shape;

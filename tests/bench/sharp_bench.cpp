@@ -127,9 +127,8 @@ int main(int argc, char** argv) {
   // operator feeling along the crease would pick), through both sharpen variants and, for each,
   // the thesis' chord tangents and the crease's own.
   fmt::print(
-      "\n| case | hole | picked-points variant | tangents | result | H ‰ | mean ‰ | crease H ‰ | "
-      "ms "
-      "|\n");
+      "\n| case | hole | picked-points variant | tangents | result | H ‰ | mean ‰ | "
+      "crease H ‰ | ms |\n");
   fmt::print("|---|---|---|---|---|---|---|---|---|\n");
   for (const tmd::testing::HoleCase& loaded : cases) {
     const std::string& name = loaded.name;
