@@ -50,6 +50,7 @@ struct Args {
   std::string tool = "fill";
   double push_step = 0;
   std::string finish = "fair";
+  std::string tangents = "crease";
 };
 
 v1::MeshFormat format_of(const std::string& path) {
@@ -176,6 +177,12 @@ int main(int argc, char** argv) {
                  "held), smooth (the thesis' normal propagation, Algorithm VII) or none")
       ->check(CLI::IsMember({"fair", "smooth", "none"}))
       ->capture_default_str();
+  cli.add_option("--tangents", a.tangents,
+                 "sharp-edge: where the curve's end directions come from. crease: where P1 (P4)\n"
+                 "lies on a crease reaching the hole at P2 (P3), along that crease (a shaky\n"
+                 "pick does not tilt the curve); chord: unit(P2-P1), unit(P4-P3) as the thesis")
+      ->check(CLI::IsMember({"crease", "chord"}))
+      ->capture_default_str();
   cli.add_option("--push-step", a.push_step,
                  "sharp-edge: push distance per tool step, model units (0 = 1/400 of the "
                  "model's diagonal)")
@@ -265,6 +272,8 @@ int main(int argc, char** argv) {
   station_options.push_finish = a.finish == "smooth" ? v1::PUSH_FINISH_SMOOTH
                                 : a.finish == "none" ? v1::PUSH_FINISH_NONE
                                                      : v1::PUSH_FINISH_FAIR;
+  station_options.tangents =
+      a.tangents == "chord" ? v1::PICK_TANGENTS_CHORD : v1::PICK_TANGENTS_CREASE;
   if (a.session.empty()) {
     const std::string mesh = a.mesh.empty() ? default_mesh() : a.mesh;
     std::ifstream in(mesh, std::ios::binary);

@@ -376,6 +376,7 @@ void Station::sharp_edge_press(const Vec3& tool) {
     picks_.push_back(tool);
     if (picks_.size() == 4) {
       for (const Vec3& p : picks_) *request.mutable_begin()->add_points() = wire(p);
+      request.mutable_begin()->set_tangents(options_.tangents);
       const Status s = client_.sharp_edge(request, response);
       if (!s.is_ok()) {
         set_status("sharp edge: " + s.to_string() + " (pick again)");
@@ -383,9 +384,12 @@ void Station::sharp_edge_press(const Vec3& tool) {
       } else {
         take_preview(response);
         sharp_phase_ = SharpPhase::Previewed;
-        set_status(fmt::format(
-            "sharp edge: curve through the patch of {} faces; click to confirm, drag to change k",
-            response.patch_faces()));
+        const auto end = [](bool crease) { return crease ? "crease" : "chord"; };
+        set_status(
+            fmt::format("sharp edge: curve through the patch of {} faces (tangents: {} at "
+                        "P2, {} at P3); click to confirm, drag to change k",
+                        response.patch_faces(), end(response.crease_tangent_start()),
+                        end(response.crease_tangent_end())));
       }
     }
   } else if (sharp_phase_ == SharpPhase::Previewed) {

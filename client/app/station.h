@@ -96,6 +96,8 @@ struct StationOptions {
   double push_step = 0;  //!< sharp edge: push distance per sample; 0 = 1/400 of the diagonal
   //! sharp edge, button 2: how the rest of the patch is shaped after the pushes
   v1::PushFinish push_finish = v1::PUSH_FINISH_FAIR;
+  //! sharp edge: the curve leaves along the crease P1 (P4) lies on (default) or the chord
+  v1::PickTangents tangents = v1::PICK_TANGENTS_CREASE;
 };
 
 class Station {

@@ -56,37 +56,50 @@ std::size_t nearest_loop_index(const Mesh& mesh, const Hole& hole, const Vec3& p
   return best;
 }
 
-//! PickTangents::Crease: P1 (P4) moved onto the tangent line of the crease it lies on, at its
-//! distance from P2 (P3), where that crease reaches the rim at loop vertex \p start (\p end).
-void take_crease_tangents(const Mesh& mesh, const Hole& hole, std::optional<std::size_t> start,
-                          std::optional<std::size_t> end, const SharpenOptions& options,
-                          HermitePoints& p, SharpenResult& result) {
+//! take_crease_tangents on the rim of \p hole (loop indices of P2's and P3's vertices).
+void take_hole_crease_tangents(const Mesh& mesh, const Hole& hole, std::optional<std::size_t> start,
+                               std::optional<std::size_t> end, const SharpenOptions& options,
+                               HermitePoints& p, SharpenResult& result) {
   if (options.tangents != PickTangents::Crease) return;
-  // The automatic plan's fit length (plan_hole_creases), so a pair picked on the creases it
-  // pairs gets its curve.
-  const double diameter = hole.perimeter / std::numbers::pi;
-  const double fit_length =
-      std::max(CreaseOptions{}.fit_length * diameter, 2.5 * hole.mean_edge_length);
-  const double tolerance = options.crease_pick_tolerance * hole.mean_edge_length;
-  if (start) {
-    const auto t = crease_tangent_towards(mesh, hole.loop[*start], p.p1, options.crease_angle_deg,
-                                          tolerance, fit_length);
-    if (t) {
-      p.p1 = p.p2 + (p.p1 - p.p2).norm() * *t;
-      result.crease_tangent_start = true;
-    }
-  }
-  if (end) {
-    const auto t = crease_tangent_towards(mesh, hole.loop[*end], p.p4, options.crease_angle_deg,
-                                          tolerance, fit_length);
-    if (t) {
-      p.p4 = p.p3 + (p.p4 - p.p3).norm() * *t;
-      result.crease_tangent_end = true;
-    }
-  }
+  const CreaseTangentPicks taken = take_crease_tangents(
+      mesh, p, start ? hole.loop[*start] : VertexHandle(), end ? hole.loop[*end] : VertexHandle(),
+      hole.perimeter, hole.mean_edge_length, options);
+  p = taken.points;
+  result.crease_tangent_start = taken.start;
+  result.crease_tangent_end = taken.end;
 }
 
 }  // namespace
+
+CreaseTangentPicks take_crease_tangents(const Mesh& mesh, const HermitePoints& picks,
+                                        VertexHandle at_p2, VertexHandle at_p3, double perimeter,
+                                        double mean_edge_length, const SharpenOptions& options) {
+  CreaseTangentPicks out;
+  out.points = picks;
+  // The automatic plan's fit length (plan_hole_creases), so a pair picked on the creases it
+  // pairs gets its curve.
+  const double diameter = perimeter / std::numbers::pi;
+  const double fit_length = std::max(CreaseOptions{}.fit_length * diameter, 2.5 * mean_edge_length);
+  const double tolerance = options.crease_pick_tolerance * mean_edge_length;
+  HermitePoints& p = out.points;
+  if (at_p2.is_valid()) {
+    const auto t =
+        crease_tangent_towards(mesh, at_p2, p.p1, options.crease_angle_deg, tolerance, fit_length);
+    if (t) {
+      p.p1 = p.p2 + (p.p1 - p.p2).norm() * *t;
+      out.start = true;
+    }
+  }
+  if (at_p3.is_valid()) {
+    const auto t =
+        crease_tangent_towards(mesh, at_p3, p.p4, options.crease_angle_deg, tolerance, fit_length);
+    if (t) {
+      p.p4 = p.p3 + (p.p4 - p.p3).norm() * *t;
+      out.end = true;
+    }
+  }
+  return out;
+}
 
 const char* to_string(PickTangents tangents) {
   return tangents == PickTangents::Crease ? "crease" : "chord";
@@ -143,7 +156,7 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
     }
     p.p2 = mesh.point(hole.loop[i2]);
     p.p3 = mesh.point(hole.loop[i3]);
-    take_crease_tangents(mesh, hole, i2, i3, options, p, result);
+    take_hole_crease_tangents(mesh, hole, i2, i3, options, p, result);
     const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
     if (!curve.curve) {
       result.failure = curve.failure;
@@ -183,7 +196,7 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
       return i;
     return std::nullopt;
   };
-  take_crease_tangents(mesh, hole, rim_vertex(p.p2), rim_vertex(p.p3), options, p, result);
+  take_hole_crease_tangents(mesh, hole, rim_vertex(p.p2), rim_vertex(p.p3), options, p, result);
   const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
   if (!curve.curve) {
     result.failure = curve.failure;

@@ -84,6 +84,23 @@ struct SharpenResult {
 SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& picks,
                            const SharpenOptions& options = {});
 
+//! P1 and P4 after PickTangents::Crease, and which ends took a crease's tangent.
+struct CreaseTangentPicks {
+  HermitePoints points;
+  bool start = false;
+  bool end = false;
+};
+
+//! PickTangents::Crease for picks whose P2 (P3) lies at the rim vertex \p at_p2 (\p at_p3; an
+//! invalid handle where none is near) of a hole with \p perimeter and \p mean_edge_length: where
+//! P1 (P4) lies on a crease reaching the rim there (crease_tangent_towards, within
+//! `crease_pick_tolerance` mean edges, edges sharper than `crease_angle_deg`), it moves onto
+//! that crease's tangent line at its distance from P2 (P3), so the curve leaves along the
+//! crease. The batch sharpen and the station's interactive tool share it.
+CreaseTangentPicks take_crease_tangents(const Mesh& mesh, const HermitePoints& picks,
+                                        VertexHandle at_p2, VertexHandle at_p3, double perimeter,
+                                        double mean_edge_length, const SharpenOptions& options);
+
 //! One line on what a push-down did, for reports: "4 snapped, 2 split, 10 pushed, 43 faired"
 //! (or "..., fairing undone: <why>").
 std::string push_down_summary(const SharpenResult& result, PushFinish finish);

@@ -442,6 +442,8 @@ void fill_preview(const SharpEdgeTool& tool, v1::SharpEdgeResponse& response) {
     for (const auto& p : t) *response.add_guide() = point(p);
   response.set_patch_faces(static_cast<std::uint32_t>(tool.patch_faces.size()));
   response.set_curtain_vertices(static_cast<std::uint32_t>(tool.on_guide.size()));
+  response.set_crease_tangent_start(tool.crease_tangent_start);
+  response.set_crease_tangent_end(tool.crease_tangent_end);
 }
 
 }  // namespace
@@ -477,8 +479,12 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
       sharp_tool_ = std::move(tool);
       sharp_tool_principal_ = principal;
       response.set_version(document_.version);
+      geometry::SharpenResult ends;  // for the tangents' summary line
+      ends.crease_tangent_start = sharp_tool_->crease_tangent_start;
+      ends.crease_tangent_end = sharp_tool_->crease_tangent_end;
       response.set_summary("sharp-edge tool on a patch of " +
-                           std::to_string(sharp_tool_->patch_faces.size()) + " faces");
+                           std::to_string(sharp_tool_->patch_faces.size()) + " faces; " +
+                           geometry::tangents_summary(ends, sharp_tool_->tangents));
       break;
     }
     case v1::SharpEdgeRequest::kAdjust: {

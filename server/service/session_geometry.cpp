@@ -764,6 +764,8 @@ Status SessionGeometry::sharp_edge_begin(const rpc::MeshDocument& document, Slot
               to_vec(begin.points(3))};
   t.k1 = begin.k1();
   t.k4 = begin.k4();
+  if (!to_pick_tangents(begin.tangents(), t.tangents))
+    return {StatusCode::InvalidArgument, "unknown tangents " + std::to_string(begin.tangents())};
   const auto edited = [&](FaceHandle f) {
     const std::uint32_t id = doc_of_mesh_face_.size() > static_cast<std::size_t>(f.idx())
                                  ? doc_of_mesh_face_[static_cast<std::size_t>(f.idx())]
@@ -831,6 +833,31 @@ Status SessionGeometry::sharp_edge_begin(const rpc::MeshDocument& document, Slot
     for (const VertexHandle v : mesh_.fv_range(f))
       reach = std::max(reach, std::abs(OpenMesh::dot(mesh_.point(v) - t.points.p2, t.normal)));
   t.height = std::max(diameter, 3 * reach);
+  if (t.tangents == geometry::PickTangents::Crease) {
+    // P2 (P3) picked at a rim vertex: the crease through it that P1 (P4) lies on gives the
+    // curve's direction there, as the batch sharpen takes it (seed 000 §5: one pick on a badly
+    // oriented triangle biases the curve).
+    const geometry::SharpenOptions defaults;
+    const auto rim_vertex = [&](const geometry::Vec3& q) {
+      VertexHandle nearest;
+      double best_distance = defaults.crease_pick_tolerance * t.segment_length;
+      for (const std::uint32_t id : t.boundary) {
+        const VertexHandle v(static_cast<int>(mesh_of_doc_vertex_[id]));
+        const double d = (mesh_.point(v) - q).norm();
+        if (d <= best_distance) {
+          best_distance = d;
+          nearest = v;
+        }
+      }
+      return nearest;
+    };
+    const geometry::CreaseTangentPicks taken = geometry::take_crease_tangents(
+        mesh_, t.points, rim_vertex(t.points.p2), rim_vertex(t.points.p3), boundary_length,
+        t.segment_length, defaults);
+    t.points = taken.points;
+    t.crease_tangent_start = taken.start;
+    t.crease_tangent_end = taken.end;
+  }
   if (!t.guide())
     return {StatusCode::InvalidArgument, "the four points make no curve (two coincide)"};
   tool = std::move(t);

@@ -82,6 +82,11 @@ struct SlotExtent {
 struct SharpEdgeTool {
   geometry::HermitePoints points;
   double k1 = 0, k4 = 0;
+  //! Where the end directions come from; with Crease, P1 (P4) was moved onto the tangent line
+  //! of the crease it lies on where one was found (geometry::take_crease_tangents).
+  geometry::PickTangents tangents = geometry::PickTangents::Crease;
+  bool crease_tangent_start = false;
+  bool crease_tangent_end = false;
   std::vector<std::uint32_t> patch_faces;  //!< document face ids
   std::set<std::uint32_t> boundary;        //!< document vertex ids that never move
   geometry::Vec3 normal{0, 0, 1};          //!< extrusion direction of the guiding surface

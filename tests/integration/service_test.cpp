@@ -1252,5 +1252,57 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
 }
 
+// The interactive tool takes the curve's end directions as the batch sharpen does: P1 picked
+// beside the cube's edge (0.4 below it, on the face x = 8) points at the edge, whose direction
+// the curve leaves along; the thesis' chord tilts it off the edge. An unknown mode is refused.
+TEST(Service, InteractiveSharpEdgeCurveLeavesAlongTheCreaseAPickIsBeside) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  RepairClient a(server.connect());
+  v1::SessionInfo info;
+  ASSERT_TRUE(a.create_session("tangents", info).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(
+      a.upload_mesh(info.session_id(), cube_edge_hole_off(), v1::OFF, "cube.off", loaded).is_ok());
+  v1::FillHolesRequest fill;
+  fill.set_session_id(info.session_id());
+  fill.mutable_selection()->set_all(true);
+  fill.mutable_options()->set_sharp(v1::SHARP_OFF);
+  v1::EditResponse filled;
+  ASSERT_TRUE(a.fill_holes(fill, filled).is_ok());
+  // The hole's rim meets the edge at y = 2 and y = 6.
+  const auto begin = [&](v1::PickTangents tangents, v1::SharpEdgeResponse& response) {
+    v1::SharpEdgeRequest request;
+    request.set_session_id(info.session_id());
+    for (const auto& [y, z] : {std::pair{0.5, 7.6}, {2.0, 8.0}, {6.0, 8.0}, {7.5, 8.0}}) {
+      auto* p = request.mutable_begin()->add_points();
+      p->set_x(8);
+      p->set_y(y);
+      p->set_z(z);
+    }
+    request.mutable_begin()->set_tangents(tangents);
+    return a.sharp_edge(request, response);
+  };
+  const auto off_the_edge = [](const v1::SharpEdgeResponse& response) {
+    double off = 0;
+    for (const auto& q : response.curve()) off = std::max(off, std::hypot(q.x() - 8, q.z() - 8));
+    return off;
+  };
+  v1::SharpEdgeResponse crease, chord, unknown;
+  ASSERT_TRUE(begin(v1::PICK_TANGENTS_CREASE, crease).is_ok());
+  EXPECT_TRUE(crease.crease_tangent_start());
+  EXPECT_TRUE(crease.crease_tangent_end());
+  EXPECT_NE(crease.summary().find("crease at both ends"), std::string::npos) << crease.summary();
+  ASSERT_GE(crease.curve_size(), 2);
+  EXPECT_LT(off_the_edge(crease), 1e-9);
+  ASSERT_TRUE(begin(v1::PICK_TANGENTS_CHORD, chord).is_ok());
+  EXPECT_FALSE(chord.crease_tangent_start());
+  EXPECT_FALSE(chord.crease_tangent_end());
+  EXPECT_GT(off_the_edge(chord), 0.05);
+  EXPECT_EQ(begin(static_cast<v1::PickTangents>(7), unknown).code, StatusCode::InvalidArgument);
+  EXPECT_EQ(crease.version(), filled.version());  // previews only
+}
+
 }  // namespace
 }  // namespace touchmend::testing

@@ -475,8 +475,9 @@ TEST(Station, SharpEdgeTangentsAdjustLiveWithoutAnEdit) {
   app::Station& station = *s.station;
   const Vec3 diagonal = out_of_the_edge();
   std::vector<Waypoint> w{{Vec3(8, 0.5, 8) + 2.0 * diagonal, 0.1, 0}};
-  // P1 off the edge's line (a bend), so longer tangents move the curve's middle.
-  for (const Vec3& p : {Vec3(8, 0.5, 7.0), Vec3(8, 1.6, 8), Vec3(8, 6.4, 8), Vec3(8, 7.5, 8)})
+  // P1 off the edge's line (a bend; far enough from the edge that it is on no crease, so the
+  // chord gives the start direction), so longer tangents move the curve's middle.
+  for (const Vec3& p : {Vec3(8, 0.5, 5.5), Vec3(8, 1.6, 8), Vec3(8, 6.4, 8), Vec3(8, 7.5, 8)})
     press_at(w, p, diagonal);
   w.push_back({Vec3(8, 4, 8) + 2.0 * diagonal, 6.0, 0});  // then wait while k is adjusted
   ReplayedRun run(station, path(s.map, s.workspace, w), s.model, s.workspace);
@@ -523,6 +524,9 @@ TEST(Station, SharpEdgeTangentsFollowADragAndAClickConfirms) {
       << station.view().status;
   const app::StationView first = station.view();
   ASSERT_GT(first.k1, 0);
+  // P1 and P4 were picked on the edge: the curve leaves along it at both ends.
+  EXPECT_NE(first.status.find("tangents: crease at P2, crease at P3"), std::string::npos)
+      << first.status;
   // The drag: k grows while the button is held; nothing is committed.
   ASSERT_TRUE(wait_until([&] { return station.view().k1 > 1.5 * first.k1; }, 15s))
       << station.view().status;
