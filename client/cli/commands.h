@@ -13,6 +13,7 @@
 #include "server/geometry/mesh.h"
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_io.h"
+#include "server/geometry/sharpen.h"
 
 namespace touchmend::cli {
 
@@ -78,7 +79,8 @@ struct SharpenArgs {
   std::string file;
   std::string output;
   std::uint32_t hole = 0;
-  std::string points;  //!< "X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z"
+  std::vector<std::string> points;  //!< one "X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z" per curve
+  std::string corner;               //!< "X,Y,Z;X,Y,Z;..." far and rim point per corner crease
   double k1 = 0, k4 = 0;
   double depth = 0;
   std::string method = "split";
@@ -127,6 +129,11 @@ std::optional<Loaded> load(const std::string& file, std::ostream& err);
 
 //! Parses "X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z" into four finite points.
 bool parse_points(const std::string& text, geometry::HermitePoints& points);
+
+//! The picks of `sharpen` (--points, once per curve, and --corner), checked against the method:
+//! more than one curve or a corner only with the split variant. On failure prints why.
+bool parse_sharpen_picks(const SharpenArgs& args, geometry::PickedCreases& picked,
+                         std::ostream& err);
 
 //! Parses "X,Y,Z" into a finite point.
 bool parse_point(const std::string& text, geometry::Vec3& point);

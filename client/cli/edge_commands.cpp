@@ -59,8 +59,10 @@ std::vector<geometry::Gap> detect(const geometry::Mesh& mesh, double max_width) 
 
 }  // namespace
 
-bool parse_points(const std::string& text, geometry::HermitePoints& points) {
-  std::vector<geometry::Vec3> parsed;
+namespace {
+
+//! "X,Y,Z;X,Y,Z;..." into finite points (none for an empty text).
+bool parse_point_list(const std::string& text, std::vector<geometry::Vec3>& parsed) {
   std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, ';')) {
@@ -68,8 +70,52 @@ bool parse_points(const std::string& text, geometry::HermitePoints& points) {
     if (!parse_point(item, p)) return false;
     parsed.push_back(p);
   }
-  if (parsed.size() != 4) return false;
+  return true;
+}
+
+}  // namespace
+
+bool parse_points(const std::string& text, geometry::HermitePoints& points) {
+  std::vector<geometry::Vec3> parsed;
+  if (!parse_point_list(text, parsed) || parsed.size() != 4) return false;
   points = {parsed[0], parsed[1], parsed[2], parsed[3]};
+  return true;
+}
+
+bool parse_sharpen_picks(const SharpenArgs& args, geometry::PickedCreases& picked,
+                         std::ostream& err) {
+  picked = {};
+  for (const std::string& text : args.points) {
+    geometry::HermitePoints curve;
+    if (!parse_points(text, curve)) {
+      err << "error: --points expects four points X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z (P1, P2 on one side "
+             "of the hole, P2 nearest it; P3 nearest on the other side, then P4), got '"
+          << text << "'\n";
+      return false;
+    }
+    picked.curves.push_back(curve);
+  }
+  std::vector<geometry::Vec3> corner;
+  if (!parse_point_list(args.corner, corner) || corner.size() % 2 != 0 ||
+      (!corner.empty() && corner.size() < 6)) {
+    err << "error: --corner expects two points per crease, three creases or more "
+           "(X,Y,Z;X,Y,Z;... : on each crease a point away from the hole, then the point where "
+           "it meets the rim), got '"
+        << args.corner << "'\n";
+    return false;
+  }
+  for (std::size_t i = 0; i < corner.size(); i += 2)
+    picked.corner.push_back({corner[i], corner[i + 1]});
+  if (picked.curves.empty() && picked.corner.empty()) {
+    err << "error: pick the crease: --points P1;P2;P3;P4 (one curve through the hole, repeat "
+           "for more) and/or --corner (creases meeting inside it)\n";
+    return false;
+  }
+  if ((picked.curves.size() > 1 || !picked.corner.empty()) && args.method != "split") {
+    err << "error: several curves or a corner are retained by --method split only (the "
+           "push-down follows one curve)\n";
+    return false;
+  }
   return true;
 }
 
@@ -80,13 +126,8 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
         << ": unknown output extension (expected .stl, .obj, .off or .ply)\n";
     return kExitUsage;
   }
-  geometry::HermitePoints picks;
-  if (!parse_points(args.points, picks)) {
-    err << "error: --points expects four points X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z (P1, P2 on one side of "
-           "the hole, P2 nearest it; P3 nearest on the other side, then P4), got '"
-        << args.points << "'\n";
-    return kExitUsage;
-  }
+  geometry::PickedCreases picked;
+  if (!parse_sharpen_picks(args, picked, err)) return kExitUsage;
   geometry::SharpenOptions options;
   if (args.method == "split")
     options.method = geometry::SharpenMethod::Split;
@@ -134,7 +175,10 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
         args.file, args.hole, holes.size());
     return kExitBadInput;
   }
-  const geometry::SharpenResult r = geometry::sharpen_hole(mesh, holes[*index], picks, options);
+  const bool one_curve = picked.curves.size() == 1 && picked.corner.empty();
+  const geometry::SharpenResult r =
+      one_curve ? geometry::sharpen_hole(mesh, holes[*index], picked.curves[0], options)
+                : geometry::sharpen_creases(mesh, holes[*index], picked, options);
   if (!r.ok) {
     err << fmt::format("error: hole {}: {}\n", args.hole, r.failure);
     return kExitBadInput;
@@ -152,6 +196,10 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
           point_json(r.points.p4)}},
         {"tangents", geometry::to_string(options.tangents)},
         {"crease_tangents", {{"start", r.crease_tangent_start}, {"end", r.crease_tangent_end}}},
+        {"curves", picked.curves.size()},
+        {"corner_creases", picked.corner.size()},
+        {"corner", r.corner ? point_json(*r.corner) : nlohmann::json()},
+        {"crease_tangents_taken", r.crease_tangents_taken},
         {"fill", to_json(r.fill)},
         {"snapped", r.snap.moved},
         {"split_edges", r.snap.splits},
@@ -166,14 +214,17 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
     out << j.dump(2) << "\n";
   } else {
     out << fill_text(r.fill);
-    out << "curve: " << geometry::tangents_summary(r, options.tangents) << "\n";
+    out << (one_curve ? "curve: " + geometry::tangents_summary(r, options.tangents)
+                      : "creases: " + geometry::creases_summary(r, picked, options.tangents))
+        << "\n";
     if (options.method == geometry::SharpenMethod::PushDown)
       out << fmt::format(
           "sharp edge retained (push-down{}): {}\n",
           options.depth > 0 ? fmt::format(", up to {} past the curve", options.depth) : "",
           geometry::push_down_summary(r, options.finish));
     else
-      out << "sharp edge retained (split): the hole was filled on both sides of the curve\n";
+      out << "sharp edge retained (split): the hole was filled on both sides of "
+          << (one_curve ? "the curve" : "every curve") << "\n";
     out << fmt::format("wrote {} ({} vertices, {} faces)\n", args.output, written.vertices_written,
                        written.faces_written);
   }

@@ -118,14 +118,23 @@ int main(int argc, char** argv) {
       "Fill a hole and restore the sharp edge through it from four points picked along the\n"
       "crease (seed 000 §4.2): P1, P2 on one side of the hole (P2 nearest it), P3, P4 on the\n"
       "other (P3 nearest). The Hermite curve runs P2 -> P3 leaving along P1->P2 and arriving\n"
-      "along P3->P4; the points are snapped onto the surface first");
+      "along P3->P4; the points are snapped onto the surface first. Beyond the thesis: several\n"
+      "curves, and creases meeting at a corner inside the hole (--corner)");
   sharpen_cmd->add_option("FILE", sharpen.file, "Mesh file with the hole")->required();
   sharpen_cmd->add_option("-o,--output", sharpen.output, "Where to write the result")->required();
   sharpen_cmd->add_option("--hole", sharpen.hole, "Hole id (see `touchmend holes`)")->required();
   sharpen_cmd
       ->add_option("--points", sharpen.points,
-                   "P1;P2;P3;P4 as X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z (quote it in the shell)")
-      ->required();
+                   "P1;P2;P3;P4 as X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z (quote it in the shell);\n"
+                   "repeat --points for more curves through the hole (split only)")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sharpen_cmd->add_option(
+      "--corner", sharpen.corner,
+      "Creases meeting at a corner inside the hole (three or more; split only), two\n"
+      "points each: a point on the crease away from the hole, then where it meets the\n"
+      "rim (X,Y,Z;X,Y,Z;...). They are extended along their tangents to the point\n"
+      "nearest all of them. With --points too, those curves are kept as well");
   sharpen_cmd
       ->add_option("--k1", sharpen.k1,
                    "Start tangent length (model units; default: the circular-arc length\n"

@@ -521,12 +521,8 @@ v1::Point3 wire_point(const geometry::Vec3& p) {
 
 int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::ostream& out,
                        std::ostream& err) {
-  geometry::HermitePoints points;
-  if (!parse_points(args.points, points)) {
-    err << "error: --points expects four points X,Y,Z;X,Y,Z;X,Y,Z;X,Y,Z, got '" << args.points
-        << "'\n";
-    return kExitUsage;
-  }
+  geometry::PickedCreases picked;
+  if (!parse_sharpen_picks(args, picked, err)) return kExitUsage;
   if (args.depth != 0 && args.method != "push-down") {
     err << "error: --depth applies to --method push-down\n";
     return kExitUsage;
@@ -553,8 +549,13 @@ int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::o
   request.set_tangents(tangents == geometry::PickTangents::Chord ? v1::PICK_TANGENTS_CHORD
                                                                  : v1::PICK_TANGENTS_CREASE);
   request.set_hole_id(args.hole);
-  for (const auto& p : {points.p1, points.p2, points.p3, points.p4})
-    *request.add_points() = wire_point(p);
+  for (const geometry::HermitePoints& curve : picked.curves)
+    for (const auto& p : {curve.p1, curve.p2, curve.p3, curve.p4})
+      *request.add_points() = wire_point(p);
+  for (const geometry::CreasePick& crease : picked.corner) {
+    *request.add_corner() = wire_point(crease.far);
+    *request.add_corner() = wire_point(crease.rim);
+  }
   request.set_k1(args.k1);
   request.set_k4(args.k4);
   request.set_method(args.method == "push-down" ? v1::SHARPEN_PUSH_DOWN : v1::SHARPEN_SPLIT);

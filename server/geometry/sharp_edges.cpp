@@ -181,6 +181,43 @@ std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, co
   return best;
 }
 
+bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings,
+                    double line_tolerance, const HermiteOptions& hermite, double tolerance) {
+  if (crossings.size() < 3) return false;
+  std::vector<Vec3> origins, directions;
+  for (const std::size_t i : crossings) {
+    origins.push_back(plan.crossings[i].position);
+    directions.push_back(plan.crossings[i].inward);
+  }
+  const std::optional<Vec3> corner = nearest_point_to_lines(origins, directions);
+  if (!corner) return false;
+  // Ahead of every crease, and near every tangent line.
+  for (std::size_t k = 0; k < crossings.size(); ++k) {
+    const Vec3 to_corner = *corner - origins[k];
+    const double along = OpenMesh::dot(to_corner, directions[k]);
+    const double off_line = (to_corner - along * directions[k]).norm();
+    if (along <= 0 || off_line > line_tolerance) return false;
+  }
+  std::vector<CreaseCurve> curves;
+  for (const std::size_t i : crossings) {
+    const CreaseCrossing& c = plan.crossings[i];
+    const Vec3 chord = *corner - c.position;
+    const Vec3 unit = Vec3(chord).normalize_cond();
+    // Arrive as a circular arc would: the start tangent mirrored about the chord.
+    const Vec3 end_direction = 2.0 * OpenMesh::dot(c.inward, unit) * unit - c.inward;
+    CreaseCurve curve;
+    curve.from = i;
+    curve.points = {c.far_point, c.position, *corner, *corner + chord.norm() * end_direction};
+    const HermiteCurveResult r = make_hermite_curve(curve.points, hermite, tolerance);
+    if (!r.curve) continue;  // the corner is on the rim there: no curve needed
+    curve.curve = *r.curve;
+    curves.push_back(curve);
+  }
+  plan.corner = corner;
+  plan.curves.insert(plan.curves.end(), curves.begin(), curves.end());
+  return true;
+}
+
 HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const CreaseOptions& options) {
   HoleCreasePlan plan;
   const std::size_t n = hole.loop.size();
@@ -323,42 +360,15 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     plan.curves.push_back(curve);
   }
 
-  if (left.size() >= 3) {
-    std::vector<Vec3> origins, directions;
-    for (const std::size_t i : left) {
-      origins.push_back(plan.crossings[i].position);
-      directions.push_back(plan.crossings[i].inward);
-    }
-    std::optional<Vec3> corner = nearest_point_to_lines(origins, directions);
-    // The corner must lie ahead of every crease and inside the hole's projection.
-    if (corner) {
-      for (std::size_t k = 0; k < left.size() && corner; ++k) {
-        const Vec3 to_corner = *corner - origins[k];
-        const double along = OpenMesh::dot(to_corner, directions[k]);
-        const double off_line = (to_corner - along * directions[k]).norm();
-        if (along <= 0 || off_line > options.corner_tolerance * diameter) corner.reset();
-      }
-      if (corner && !point_in_polygon(polygon, frame.project(*corner))) corner.reset();
-    }
-    if (corner) {
-      plan.corner = corner;
-      for (const std::size_t i : left) {
-        const CreaseCrossing& c = plan.crossings[i];
-        const Vec3 chord = *corner - c.position;
-        const Vec3 unit = Vec3(chord).normalize_cond();
-        // Arrive as a circular arc would: the start tangent mirrored about the chord.
-        const Vec3 end_direction = 2.0 * OpenMesh::dot(c.inward, unit) * unit - c.inward;
-        CreaseCurve curve;
-        curve.from = i;
-        curve.points = {c.far_point, c.position, *corner, *corner + chord.norm() * end_direction};
-        const HermiteCurveResult r = make_hermite_curve(curve.points, options.hermite, tolerance);
-        if (!r.curve) continue;
-        curve.curve = *r.curve;
-        plan.curves.push_back(curve);
-      }
-      left.clear();
-    }
+  const std::size_t paired_curves = plan.curves.size();
+  if (left.size() >= 3 &&
+      join_at_corner(plan, left, options.corner_tolerance * diameter, options.hermite, tolerance) &&
+      !point_in_polygon(polygon, frame.project(*plan.corner))) {
+    // The corner must lie inside the hole's projection.
+    plan.corner.reset();
+    plan.curves.resize(paired_curves);
   }
+  if (plan.corner) left.clear();
   plan.unmatched = left;
   plan.summary = fmt::format("{} crease crossings, {} curves{}{}", reported, plan.curves.size(),
                              plan.corner ? " meeting at a corner" : "",

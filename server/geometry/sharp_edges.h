@@ -85,6 +85,14 @@ struct HoleCreasePlan {
 HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
                                  const CreaseOptions& options = {});
 
+//! Extends the creases of \p crossings (indices into plan.crossings, three or more) to a common
+//! corner: the least-squares nearest point to their tangent lines, which must lie ahead of every
+//! crossing and within \p line_tolerance of every line. On success sets plan.corner and appends
+//! one curve per crossing, from it to the corner (arriving as a circular arc would); otherwise
+//! leaves \p plan unchanged. \p tolerance is the smallest distance that counts.
+bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings,
+                    double line_tolerance, const HermiteOptions& hermite, double tolerance);
+
 //! The crease that a pick P1 points at from vertex \p at (P2's or P3's vertex on the rim):
 //! the chain of edges sharper than \p angle_deg that leaves \p at, continues straightest and
 //! passes within \p tolerance of \p pick. Its tangent at \p at, fitted over \p fit_length of

@@ -56,6 +56,38 @@ std::size_t nearest_loop_index(const Mesh& mesh, const Hole& hole, const Vec3& p
   return best;
 }
 
+//! \p q on the surface around \p hole (the nearest point), or a failure naming the pick.
+std::optional<Vec3> snap_pick(const SurfaceSnapper& snapper, const Hole& hole, const Vec3& q,
+                              const std::string& name, const SharpenOptions& options,
+                              double diameter, std::string& failure) {
+  if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2])) {
+    failure = name + " is not a finite point";
+    return std::nullopt;
+  }
+  const auto snapped = snapper.snap(q, options.max_pick_distance * diameter);
+  if (!snapped)
+    failure = fmt::format(
+        "{} ({:.6g}, {:.6g}, {:.6g}) is not on the surface around hole {} (farther than {} hole "
+        "diameters)",
+        name, q[0], q[1], q[2], hole.id, options.max_pick_distance);
+  return snapped;
+}
+
+//! The hole filled split along the curves of \p plan (the split variant's last step).
+void fill_split(Mesh& mesh, const Hole& hole, const HoleCreasePlan& plan,
+                const SharpenOptions& options, SharpenResult& result) {
+  FillOptions fill = options.fill;
+  fill.explicit_creases = plan;
+  fill.methods = {FillMethod::CreaseSplit};
+  result.fill = fill_hole(mesh, hole, fill);
+  if (!result.fill.filled) {
+    result.failure = "the hole could not be filled along the curves: " + result.fill.reason;
+    return;
+  }
+  result.patch = result.fill.new_faces;
+  result.ok = true;
+}
+
 //! take_crease_tangents on the rim of \p hole (loop indices of P2's and P3's vertices).
 void take_hole_crease_tangents(const Mesh& mesh, const Hole& hole, std::optional<std::size_t> start,
                                std::optional<std::size_t> end, const SharpenOptions& options,
@@ -123,6 +155,11 @@ const char* to_string(SharpenMethod method) {
 
 SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& picks,
                            const SharpenOptions& options) {
+  if (options.method == SharpenMethod::Split) {
+    PickedCreases picked;
+    picked.curves = {picks};
+    return sharpen_creases(mesh, hole, picked, options);
+  }
   SharpenResult result;
   const double diameter = std::max(hole.perimeter / std::numbers::pi, 1e-300);
   const double tolerance = 1e-9 * diameter;
@@ -131,60 +168,10 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
   const Vec3* in[4] = {&picks.p1, &picks.p2, &picks.p3, &picks.p4};
   Vec3* out[4] = {&p.p1, &p.p2, &p.p3, &p.p4};
   for (int i = 0; i < 4; ++i) {
-    const Vec3& q = *in[i];
-    if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2])) {
-      result.failure = fmt::format("P{} is not a finite point", i + 1);
-      return result;
-    }
-    const auto snapped = snapper.snap(q, options.max_pick_distance * diameter);
-    if (!snapped) {
-      result.failure = fmt::format(
-          "P{} ({:.6g}, {:.6g}, {:.6g}) is not on the surface around hole {} (farther than {} "
-          "hole diameters)",
-          i + 1, q[0], q[1], q[2], hole.id, options.max_pick_distance);
-      return result;
-    }
+    const auto snapped = snap_pick(snapper, hole, *in[i], fmt::format("P{}", i + 1), options,
+                                   diameter, result.failure);
+    if (!snapped) return result;
     *out[i] = *snapped;
-  }
-  if (options.method == SharpenMethod::Split) {
-    // The curve must end on the boundary: P2 and P3 go to their nearest boundary vertices.
-    const std::size_t i2 = nearest_loop_index(mesh, hole, p.p2);
-    const std::size_t i3 = nearest_loop_index(mesh, hole, p.p3);
-    if (i2 == i3) {
-      result.failure = "P2 and P3 are nearest to the same boundary vertex";
-      return result;
-    }
-    p.p2 = mesh.point(hole.loop[i2]);
-    p.p3 = mesh.point(hole.loop[i3]);
-    take_hole_crease_tangents(mesh, hole, i2, i3, options, p, result);
-    const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
-    if (!curve.curve) {
-      result.failure = curve.failure;
-      return result;
-    }
-    HoleCreasePlan plan;
-    CreaseCrossing a, b;
-    a.loop_index = i2;
-    a.vertex = hole.loop[i2];
-    a.position = p.p2;
-    b.loop_index = i3;
-    b.vertex = hole.loop[i3];
-    b.position = p.p3;
-    plan.crossings = {a, b};
-    plan.curves.push_back({0, 1, p, *curve.curve});
-    plan.summary = "the picked curve";
-    FillOptions fill = options.fill;
-    fill.explicit_creases = plan;
-    fill.methods = {FillMethod::CreaseSplit};
-    result.points = p;
-    result.fill = fill_hole(mesh, hole, fill);
-    if (!result.fill.filled) {
-      result.failure = "the hole could not be filled along the curve: " + result.fill.reason;
-      return result;
-    }
-    result.patch = result.fill.new_faces;
-    result.ok = true;
-    return result;
   }
 
   // P2 and P3 stay where they were picked; a crease's tangent is taken where one reaches the
@@ -258,6 +245,134 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
   return result;
 }
 
+SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases& picked,
+                              const SharpenOptions& options) {
+  SharpenResult result;
+  if (picked.curves.empty() && picked.corner.empty()) {
+    result.failure = "no creases picked";
+    return result;
+  }
+  if (!picked.corner.empty() && picked.corner.size() < 3) {
+    result.failure = fmt::format(
+        "a corner needs three or more creases (two points each), {} given: for one crease "
+        "through the hole pick P1..P4",
+        picked.corner.size());
+    return result;
+  }
+  if (options.method != SharpenMethod::Split) {
+    result.failure = "several curves or a corner are retained by the split variant only";
+    return result;
+  }
+  const double diameter = std::max(hole.perimeter / std::numbers::pi, 1e-300);
+  const double tolerance = 1e-9 * diameter;
+  const SurfaceSnapper snapper(mesh, hole, options.max_pick_distance * diameter);
+  HoleCreasePlan plan;
+  // A crossing at the boundary vertex nearest \p rim; one per vertex.
+  const auto cross_at = [&](const Vec3& rim,
+                            const std::string& name) -> std::optional<std::size_t> {
+    CreaseCrossing c;
+    c.loop_index = nearest_loop_index(mesh, hole, rim);
+    for (const CreaseCrossing& other : plan.crossings)
+      if (other.loop_index == c.loop_index) {
+        result.failure = fmt::format(
+            "{} is nearest to a boundary vertex another pick took (loop "
+            "index {}): each crease meets the rim at its own vertex",
+            name, c.loop_index);
+        return std::nullopt;
+      }
+    c.vertex = hole.loop[c.loop_index];
+    c.position = mesh.point(c.vertex);
+    plan.crossings.push_back(c);
+    return plan.crossings.size() - 1;
+  };
+  for (std::size_t k = 0; k < picked.curves.size(); ++k) {
+    const std::string curve_name =
+        picked.curves.size() > 1 ? fmt::format("curve {}'s ", k + 1) : std::string();
+    HermitePoints p;
+    const Vec3* in[4] = {&picked.curves[k].p1, &picked.curves[k].p2, &picked.curves[k].p3,
+                         &picked.curves[k].p4};
+    Vec3* out[4] = {&p.p1, &p.p2, &p.p3, &p.p4};
+    for (int i = 0; i < 4; ++i) {
+      const auto snapped = snap_pick(snapper, hole, *in[i], fmt::format("{}P{}", curve_name, i + 1),
+                                     options, diameter, result.failure);
+      if (!snapped) return result;
+      *out[i] = *snapped;
+    }
+    // The curve must end on the boundary: P2 and P3 go to their nearest boundary vertices.
+    const auto a = cross_at(p.p2, curve_name + "P2");
+    if (!a) return result;
+    const auto b = cross_at(p.p3, curve_name + "P3");
+    if (!b) return result;
+    const std::size_t i2 = plan.crossings[*a].loop_index, i3 = plan.crossings[*b].loop_index;
+    p.p2 = plan.crossings[*a].position;
+    p.p3 = plan.crossings[*b].position;
+    SharpenResult ends;
+    take_hole_crease_tangents(mesh, hole, i2, i3, options, p, ends);
+    result.crease_tangents_taken += int{ends.crease_tangent_start} + int{ends.crease_tangent_end};
+    const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
+    if (!curve.curve) {
+      result.failure = curve_name + curve.failure;
+      return result;
+    }
+    plan.curves.push_back({*a, *b, p, *curve.curve});
+    if (k == 0) {
+      result.points = p;
+      result.crease_tangent_start = ends.crease_tangent_start;
+      result.crease_tangent_end = ends.crease_tangent_end;
+    }
+  }
+  const double fit_length =
+      std::max(CreaseOptions{}.fit_length * diameter, 2.5 * hole.mean_edge_length);
+  std::vector<std::size_t> corner_crossings;
+  for (std::size_t k = 0; k < picked.corner.size(); ++k) {
+    const auto far =
+        snap_pick(snapper, hole, picked.corner[k].far, fmt::format("crease {}'s far point", k + 1),
+                  options, diameter, result.failure);
+    if (!far) return result;
+    const auto rim =
+        snap_pick(snapper, hole, picked.corner[k].rim, fmt::format("crease {}'s rim point", k + 1),
+                  options, diameter, result.failure);
+    if (!rim) return result;
+    const auto index = cross_at(*rim, fmt::format("crease {}'s rim point", k + 1));
+    if (!index) return result;
+    CreaseCrossing& c = plan.crossings[*index];
+    const double reach = (*far - c.position).norm();
+    std::optional<Vec3> outward;
+    if (options.tangents == PickTangents::Crease)
+      outward =
+          crease_tangent_towards(mesh, c.vertex, *far, options.crease_angle_deg,
+                                 options.crease_pick_tolerance * hole.mean_edge_length, fit_length);
+    if (outward) {
+      ++result.crease_tangents_taken;
+    } else if (reach > tolerance) {
+      outward = (*far - c.position) / reach;
+    } else {
+      result.failure = fmt::format("crease {}'s two points meet at one boundary vertex", k + 1);
+      return result;
+    }
+    c.inward = -*outward;
+    c.far_point = c.position + reach * *outward;
+    c.on_crease = *far;
+    corner_crossings.push_back(*index);
+  }
+  if (!corner_crossings.empty()) {
+    const double line_tolerance = options.fill.creases.corner_tolerance * diameter;
+    if (!join_at_corner(plan, corner_crossings, line_tolerance, options.hermite, tolerance)) {
+      result.failure = fmt::format(
+          "the corner's creases do not meet: their tangent lines into the hole pass no common "
+          "point ahead of every crease within {:.3g} ({} hole diameters)",
+          line_tolerance, options.fill.creases.corner_tolerance);
+      return result;
+    }
+    result.corner = plan.corner;
+  }
+  plan.summary =
+      fmt::format("{} picked curve{}{}", plan.curves.size(), plan.curves.size() == 1 ? "" : "s",
+                  plan.corner ? " meeting at a corner" : "");
+  fill_split(mesh, hole, plan, options, result);
+  return result;
+}
+
 std::string push_down_summary(const SharpenResult& result, PushFinish finish) {
   std::string text = fmt::format("{} snapped, {} split, {} pushed", result.snap.moved,
                                  result.snap.splits, result.pushed);
@@ -277,6 +392,21 @@ std::string tangents_summary(const SharpenResult& result, PickTangents tangents)
   if (start) return "tangent of the crease at P2, the chord at P3 (P4 is on no crease from P3)";
   if (end) return "tangent of the crease at P3, the chord at P2 (P1 is on no crease from P2)";
   return "chord tangents (P1 and P4 are on no crease that reaches the rim at P2 and P3)";
+}
+
+std::string creases_summary(const SharpenResult& result, const PickedCreases& picked,
+                            PickTangents tangents) {
+  const std::size_t curves = picked.curves.size(), creases = picked.corner.size();
+  std::string text;
+  if (curves > 0) text = fmt::format("{} curve{}", curves, curves == 1 ? "" : "s");
+  if (creases > 0)
+    text += fmt::format("{}{} creases meeting at a corner", text.empty() ? "" : " and ", creases);
+  if (result.corner)
+    text += fmt::format(" ({:.6g}, {:.6g}, {:.6g})", (*result.corner)[0], (*result.corner)[1],
+                        (*result.corner)[2]);
+  if (tangents == PickTangents::Chord) return text + "; chord tangents";
+  return text + fmt::format("; {} of {} along their crease's tangent", result.crease_tangents_taken,
+                            2 * curves + creases);
 }
 
 }  // namespace touchmend::geometry

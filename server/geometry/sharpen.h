@@ -10,6 +10,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "server/geometry/edge_retaining.h"
 #include "server/geometry/hole_filling.h"
@@ -70,6 +71,10 @@ struct SharpenResult {
   //! Which ends took the tangent of the crease the picks point at (PickTangents::Crease).
   bool crease_tangent_start = false;
   bool crease_tangent_end = false;
+  //! sharpen_creases: where the corner's creases meet, and how many curve ends and corner
+  //! creases took their crease's tangent (PickTangents::Crease).
+  std::optional<Vec3> corner;
+  int crease_tangents_taken = 0;
   std::optional<GuideSurface> guide;
   HoleFillReport fill;
   SnapReport snap;
@@ -101,6 +106,31 @@ CreaseTangentPicks take_crease_tangents(const Mesh& mesh, const HermitePoints& p
                                         VertexHandle at_p2, VertexHandle at_p3, double perimeter,
                                         double mean_edge_length, const SharpenOptions& options);
 
+//! One crease picked for a corner inside a hole: a point on it away from the hole (as P1) and
+//! one where it reaches the rim (as P2).
+struct CreasePick {
+  Vec3 far{0, 0, 0};
+  Vec3 rim{0, 0, 0};
+};
+
+//! What an operator picked for one hole: curves through it (P1..P4 each, as the thesis picks
+//! one), and the creases of a corner inside it (none, or three or more).
+struct PickedCreases {
+  std::vector<HermitePoints> curves;
+  std::vector<CreasePick> corner;
+};
+
+//! The split variant for any number of picked creases, beyond the thesis (whose one curve P1..P4
+//! cannot follow three creases meeting inside a hole, e.g. a box corner cut away). Each curve
+//! is taken as sharpen_hole's split takes it; each corner crease's rim pick goes to its nearest
+//! boundary vertex, its direction into the hole is the crease's tangent there
+//! (PickTangents::Crease, where the far pick lies on a crease from that vertex) or the chord
+//! from the far pick, and the corner creases are extended to the point nearest all their tangent
+//! lines (join_at_corner, within the automatic plan's corner tolerance). The hole is then filled
+//! split along every curve. Every pick reaches the rim at its own boundary vertex.
+SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases& picked,
+                              const SharpenOptions& options = {});
+
 //! One line on what a push-down did, for reports: "4 snapped, 2 split, 10 pushed, 43 faired"
 //! (or "..., fairing undone: <why>").
 std::string push_down_summary(const SharpenResult& result, PushFinish finish);
@@ -108,5 +138,10 @@ std::string push_down_summary(const SharpenResult& result, PushFinish finish);
 //! One line on where the curve's end directions came from, for reports: "tangents of the
 //! crease at both ends", "... at P2, the chord at P3", "chord tangents".
 std::string tangents_summary(const SharpenResult& result, PickTangents tangents);
+
+//! One line on what sharpen_creases followed, for reports: "1 curve and 3 creases meeting at a
+//! corner (8, 8, 8); 5 of 5 along their crease's tangent".
+std::string creases_summary(const SharpenResult& result, const PickedCreases& picked,
+                            PickTangents tangents);
 
 }  // namespace touchmend::geometry

@@ -522,12 +522,30 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
                                                       const v1::SharpenRequest& request,
                                                       SlotExtent first_free, std::string& summary) {
   FillOutcome outcome;
-  if (request.points_size() != 4) {
-    outcome.status = {
-        StatusCode::InvalidArgument,
-        "four points are needed: P1, P2 on one side of the hole, P3, P4 on the other"};
+  if (request.points_size() % 4 != 0 ||
+      (request.points_size() == 0 && request.corner_size() == 0)) {
+    outcome.status = {StatusCode::InvalidArgument,
+                      "four points per curve are needed: P1, P2 on one side of the hole, P3, P4 "
+                      "on the other"};
     return outcome;
   }
+  if (request.corner_size() % 2 != 0 || (request.corner_size() > 0 && request.corner_size() < 6)) {
+    outcome.status = {StatusCode::InvalidArgument,
+                      "a corner needs two points per crease (away from the hole, at the rim) and "
+                      "three creases or more"};
+    return outcome;
+  }
+  const bool one_curve = request.points_size() == 4 && request.corner_size() == 0;
+  if (!one_curve && request.method() == v1::SHARPEN_PUSH_DOWN) {
+    outcome.status = {StatusCode::InvalidArgument,
+                      "several curves or a corner are retained by the split method only"};
+    return outcome;
+  }
+  for (const auto& p : request.corner())
+    if (!finite_point(p)) {
+      outcome.status = {StatusCode::InvalidArgument, "a point is not finite"};
+      return outcome;
+    }
   for (const auto& p : request.points())
     if (!finite_point(p)) {
       outcome.status = {StatusCode::InvalidArgument, "a point is not finite"};
@@ -569,9 +587,15 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
     outcome.status = {StatusCode::NotFound, "no hole with id " + std::to_string(request.hole_id())};
     return outcome;
   }
-  const geometry::HermitePoints picks{to_vec(request.points(0)), to_vec(request.points(1)),
-                                      to_vec(request.points(2)), to_vec(request.points(3))};
-  const geometry::SharpenResult r = geometry::sharpen_hole(mesh_, *hole, picks, options);
+  geometry::PickedCreases picked;
+  for (int i = 0; i + 3 < request.points_size(); i += 4)
+    picked.curves.push_back({to_vec(request.points(i)), to_vec(request.points(i + 1)),
+                             to_vec(request.points(i + 2)), to_vec(request.points(i + 3))});
+  for (int i = 0; i + 1 < request.corner_size(); i += 2)
+    picked.corner.push_back({to_vec(request.corner(i)), to_vec(request.corner(i + 1))});
+  const geometry::SharpenResult r =
+      one_curve ? geometry::sharpen_hole(mesh_, *hole, picked.curves[0], options)
+                : geometry::sharpen_creases(mesh_, *hole, picked, options);
   holes_.reset();
   if (!r.ok) {
     outcome.status = {StatusCode::FailedPrecondition, "sharpen refused: " + r.failure};
@@ -595,8 +619,11 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
                 ? fmt::format("sharp edge retained on hole {} (push-down: {}; {})",
                               request.hole_id(), geometry::push_down_summary(r, options.finish),
                               geometry::tangents_summary(r, options.tangents))
-                : fmt::format("sharp edge retained on hole {} (split along the curve; {})",
-                              request.hole_id(), geometry::tangents_summary(r, options.tangents));
+            : one_curve
+                ? fmt::format("sharp edge retained on hole {} (split along the curve; {})",
+                              request.hole_id(), geometry::tangents_summary(r, options.tangents))
+                : fmt::format("sharp edges retained on hole {} (split along {})", request.hole_id(),
+                              geometry::creases_summary(r, picked, options.tangents));
   outcome.delta = edit_delta(document, std::move(vertices), r.patch, first_free);
   return outcome;
 }

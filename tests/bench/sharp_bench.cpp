@@ -203,6 +203,60 @@ int main(int argc, char** argv) {
                      score.hausdorff_permille, score.mean_permille, score.crease_permille, ms);
         }
       }
+      // Where the detection draws several curves or extends creases to a corner, every crease it
+      // uses picked (on each crease and where it meets the rim) for sharpen_creases: its pairs as
+      // P1..P4, the corner's creases as far and rim points.
+      for (const geo::PickTangents tangents :
+           {geo::PickTangents::Chord, geo::PickTangents::Crease}) {
+        geo::Mesh mesh = geo::build_mesh(c->holed).mesh;
+        const auto holes = geo::find_holes(mesh).holes;
+        const auto id = tmd::testing::matching_hole_id(holes, ch);
+        if (!id) continue;
+        const geo::Hole& hole = holes[*geo::find_hole_by_id(holes, *id)];
+        geo::CreaseOptions co;
+        co.crease_angle_deg = crease_angle;
+        const geo::HoleCreasePlan plan = geo::plan_hole_creases(mesh, hole, co);
+        if (!plan.corner && plan.curves.size() < 2) continue;
+        geo::PickedCreases picked;
+        const double shift = pick_offset * hole.mean_edge_length;
+        const auto on_crease = [&](const geo::CreaseCrossing& x) {
+          return x.on_crease + shift * OpenMesh::cross(x.inward, hole.normal).normalize_cond();
+        };
+        for (const auto& curve : plan.curves) {
+          const geo::CreaseCrossing& from = plan.crossings[curve.from];
+          if (curve.to) {
+            const geo::CreaseCrossing& to = plan.crossings[*curve.to];
+            picked.curves.push_back({on_crease(from), from.position, to.position, on_crease(to)});
+          } else {
+            picked.corner.push_back({on_crease(from), from.position});
+          }
+        }
+        geo::SharpenOptions so;
+        so.tangents = tangents;
+        const auto start = std::chrono::steady_clock::now();
+        const geo::SharpenResult r = geo::sharpen_creases(mesh, hole, picked, so);
+        const double ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                .count();
+        const std::string tangent_name =
+            tangents == geo::PickTangents::Chord
+                ? std::string("chord")
+                : fmt::format("crease ({} of {})", r.crease_tangents_taken,
+                              2 * picked.curves.size() + picked.corner.size());
+        if (!r.ok) {
+          fmt::print("| {} | {} | every crease (split) | {} | FAILED: {} | - | - | - | - |\n", name,
+                     ch.id, tangent_name, r.failure);
+          continue;
+        }
+        geo::HoleFillReport as_fill = r.fill;
+        as_fill.new_faces = r.patch;
+        const auto score = tmd::testing::score_fill(mesh, as_fill, *c, ch);
+        fmt::print(
+            "| {} | {} | every crease (split) | {} | {} curve(s), {} creases to the corner | "
+            "{:.2f} | {:.2f} | {:.2f} | {:.2f} |\n",
+            name, ch.id, tangent_name, picked.curves.size(), picked.corner.size(),
+            score.hausdorff_permille, score.mean_permille, score.crease_permille, ms);
+      }
     }
   }
 

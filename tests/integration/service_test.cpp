@@ -853,6 +853,25 @@ TEST(Service, CommandLineAgainstAServer) {
   ASSERT_EQ(run_cli("sharpen " + fandisk + points + " -o " + sharp_local.string(), &output), 0)
       << output;
   EXPECT_EQ(read_binary_file(sharp_remote), read_binary_file(sharp_local));
+  {  // A corner from its three creases (--corner): the same file either way.
+    const geometry::MeshSoup cube = cube_with_hole(8, geometry::Vec3(8, 8, 8), 2.5);
+    const auto corner_file = dir.path() / "corner.off";
+    write_binary_file(corner_file, to_off(cube));
+    const auto holes = geometry::find_holes(geometry::build_mesh(cube).mesh).holes;
+    ASSERT_EQ(holes.size(), 1u);
+    const std::string corner = " --hole " + std::to_string(holes[0].id) +
+                               " --corner '8,3.5,8;8,5.6,8;3.5,8,8;5.6,8,8;8,8,3.5;8,8,5.6'";
+    ASSERT_EQ(run_cli(address + " sharpen " + corner_file.string() + corner + " -o " +
+                          sharp_remote.string(),
+                      &output),
+              0)
+        << output;
+    ASSERT_EQ(run_cli("sharpen " + corner_file.string() + corner + " -o " + sharp_local.string(),
+                      &output),
+              0)
+        << output;
+    EXPECT_EQ(read_binary_file(sharp_remote), read_binary_file(sharp_local));
+  }
   EXPECT_EQ(run_cli(address + " sharpen " + fandisk + " --hole 3" +
                         points.substr(points.find(" --points")) + " -o " + sharp_remote.string(),
                     &output),
@@ -1086,6 +1105,59 @@ TEST(Service, SharpenAndSharpAutoFillRetainTheCreaseOverTheWire) {
     EXPECT_EQ(h.method(), "crease-split") << h.reason();
     EXPECT_GE(h.crease_curves(), 3u);
   }
+}
+
+// Beyond the thesis over the wire: a box corner cut away, retained from its three creases
+// (SharpenRequest.corner, far and rim point of each); the corner's picks are checked first.
+TEST(Service, SharpenRetainsACornerFromItsPickedCreases) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  RepairClient a(server.connect());
+  v1::SessionInfo info;
+  ASSERT_TRUE(a.create_session("corner", info).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(a.upload_mesh(info.session_id(),
+                            to_off(cube_with_hole(8, geometry::Vec3(8, 8, 8), 2.5)), v1::OFF,
+                            "corner.off", loaded)
+                  .is_ok());
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(a.list_holes(info.session_id(), holes).is_ok());
+  ASSERT_EQ(holes.holes_size(), 1);
+  v1::SharpenRequest sharpen;
+  sharpen.set_session_id(info.session_id());
+  sharpen.set_hole_id(holes.holes(0).id());
+  for (const auto& p :
+       {geometry::Vec3(8, 3.5, 8), geometry::Vec3(8, 5.6, 8), geometry::Vec3(3.5, 8, 8),
+        geometry::Vec3(5.6, 8, 8), geometry::Vec3(8, 8, 3.5), geometry::Vec3(8, 8, 5.6)}) {
+    auto* q = sharpen.add_corner();
+    q->set_x(p[0]);
+    q->set_y(p[1]);
+    q->set_z(p[2]);
+  }
+  v1::EditResponse edit;
+  v1::SharpenRequest bad = sharpen;  // two creases make no corner
+  bad.mutable_corner()->RemoveLast();
+  bad.mutable_corner()->RemoveLast();
+  EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::InvalidArgument);
+  bad = sharpen;  // the push-down follows one curve
+  bad.set_method(v1::SHARPEN_PUSH_DOWN);
+  EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::InvalidArgument);
+  ASSERT_TRUE(a.sharpen(sharpen, edit).is_ok());
+  EXPECT_NE(edit.summary().find("3 creases meeting at a corner (8, 8, 8)"), std::string::npos)
+      << edit.summary();
+  // The corner is a new vertex, and every new vertex lies on one of the cube's faces.
+  bool corner = false;
+  for (int i = 0; i < edit.delta().added_vertex_ids_size(); ++i) {
+    const geometry::Vec3 p(edit.delta().added_positions(3 * i),
+                           edit.delta().added_positions(3 * i + 1),
+                           edit.delta().added_positions(3 * i + 2));
+    EXPECT_LT(std::min({std::abs(p[0] - 8), std::abs(p[1] - 8), std::abs(p[2] - 8)}), 1e-9);
+    corner = corner || (p - geometry::Vec3(8, 8, 8)).norm() < 1e-9;
+  }
+  EXPECT_TRUE(corner);
+  ASSERT_TRUE(a.list_holes(info.session_id(), holes).is_ok());
+  EXPECT_EQ(holes.holes_size(), 0);
 }
 
 //! The cube [0, 8]³ with a hole across its edge x = z = 8 (around y = 4), as OFF.

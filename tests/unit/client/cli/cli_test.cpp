@@ -175,6 +175,47 @@ TEST_F(Cli, SharpenRetainsAnEdgeFromFourPoints) {
   EXPECT_FALSE(fs::exists(path("x.off")));
 }
 
+// A box corner cut away, retained from picks on its three creases (--corner); a second curve
+// through the hole is given by repeating --points. The picks' rules are usage errors.
+TEST_F(Cli, SharpenRetainsACornerFromItsCreases) {
+  const geometry::MeshSoup soup = testing::cube_with_hole(8, geometry::Vec3(8, 8, 8), 2.5);
+  {
+    std::ofstream file(path("corner.off"), std::ios::binary);
+    file << testing::to_off(soup);
+  }
+  const auto holes = geometry::find_holes(geometry::build_mesh(soup).mesh).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  const std::string head = "sharpen " + path("corner.off") + " -o " + path("corner-out.off") +
+                           " --hole " + std::to_string(holes[0].id);
+  const std::string corner = " --corner '8,3.5,8;8,5.6,7.95;3.5,8,8;5.6,8.02,8;8,8,3.5;7.9,8,5.6'";
+  const CliRun r = run(head + corner + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["corner_creases"], 3);
+  EXPECT_EQ(j["crease_tangents_taken"], 3);
+  ASSERT_TRUE(j["corner"].is_array()) << j.dump();
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(j["corner"][k].get<double>(), 8.0, 1e-9);
+  const auto read = geometry::read_mesh_file(path("corner-out.off"));
+  ASSERT_TRUE(read.ok);
+  const auto built = geometry::build_mesh(read.soup);
+  EXPECT_TRUE(built.report.is_clean());
+  EXPECT_TRUE(geometry::find_holes(built.mesh).holes.empty());
+  const CliRun text = run(head + corner);
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("3 creases meeting at a corner (8, 8, 8); 3 of 3"), std::string::npos)
+      << text.out;
+
+  EXPECT_EQ(run(head).code, kExitUsage);  // nothing picked
+  EXPECT_EQ(run(head + " --corner '8,3.5,8;8,5.6,8;3.5,8,8;5.6,8,8'").code, kExitUsage);
+  EXPECT_EQ(run(head + corner + " --method push-down").code, kExitUsage);
+  const std::string curve = " --points '8,3.5,8;8,5.6,8;5.6,8,8;3.5,8,8'";
+  EXPECT_EQ(run(head + curve + curve + " --method push-down").code, kExitUsage);
+  // Two curves sharing their rim vertices: refused as bad picks, nothing written.
+  const CliRun twice = run(head + curve + curve);
+  EXPECT_EQ(twice.code, kExitBadInput);
+  EXPECT_NE(twice.err.find("another pick took"), std::string::npos) << twice.err;
+}
+
 TEST_F(Cli, GapsAndBridgeCloseABandCutAroundACube) {
   const geometry::MeshSoup band = testing::remove_faces(
       testing::cube(8), [](const geometry::Vec3& c) { return c[0] > 3 && c[0] < 4; });

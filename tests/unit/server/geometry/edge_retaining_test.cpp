@@ -259,6 +259,77 @@ TEST(Sharpen, FairFinishLaysEachSideOfTheEdgeOntoItsFace) {
   EXPECT_LT(off_faces[PushFinish::Fair], 0.1 * off_faces[PushFinish::Smooth]) << all;
 }
 
+// A box corner cut away: three creases enter the hole and meet inside it, which the thesis'
+// one curve P1..P4 cannot follow. Picked on each crease (a point away from the hole and one at
+// the rim), they are extended to their common point, the cube's corner, and the hole is filled
+// split along them: every new vertex lies on one of the three faces, the corner is a vertex.
+TEST(Sharpen, ThreeCreasesPickedMeetAtTheCubeCorner) {
+  Mesh mesh = build_mesh(testing::cube_with_hole(8, Vec3(8, 8, 8), 2.5)).mesh;
+  const auto holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  PickedCreases picked;
+  // On the edges along y, x and z towards the corner (8, 8, 8); the rim picks a little off.
+  picked.corner = {{Vec3(8, 3.5, 8), Vec3(8, 5.6, 7.95)},
+                   {Vec3(3.5, 8, 8), Vec3(5.6, 8.02, 8)},
+                   {Vec3(8, 8, 3.5), Vec3(7.9, 8, 5.6)}};
+  const SharpenResult r = sharpen_creases(mesh, holes[0], picked);
+  ASSERT_TRUE(r.ok) << r.failure;
+  EXPECT_EQ(r.crease_tangents_taken, 3);
+  ASSERT_TRUE(r.corner);
+  EXPECT_LT((*r.corner - Vec3(8, 8, 8)).norm(), 1e-9);
+  double off_faces = 0;
+  bool corner_vertex = false;
+  for (const FaceHandle f : r.patch)
+    for (const VertexHandle v : mesh.fv_range(f)) {
+      const Vec3& p = mesh.point(v);
+      off_faces = std::max(off_faces,
+                           std::min({std::abs(p[0] - 8), std::abs(p[1] - 8), std::abs(p[2] - 8)}));
+      corner_vertex = corner_vertex || (p - Vec3(8, 8, 8)).norm() < 1e-9;
+    }
+  EXPECT_LT(off_faces, 1e-9);
+  EXPECT_TRUE(corner_vertex);
+  EXPECT_TRUE(validate_mesh(mesh).is_clean());
+  EXPECT_TRUE(find_holes(mesh).holes.empty());
+  EXPECT_TRUE(find_face_intersections(mesh, r.patch).empty());
+}
+
+// Picks sharpen_creases refuses, with the reason: too few creases for a corner, two creases
+// reaching the rim at one vertex, the push-down method, a pick far off the surface, and
+// creases whose tangent lines do not meet.
+TEST(Sharpen, CreasePicksThatMakeNoCornerAreRefusedWithTheReason) {
+  const Mesh cube = build_mesh(testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2)).mesh;
+  const auto holes = find_holes(cube).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  const auto refusal = [&](const PickedCreases& picked, const SharpenOptions& options = {}) {
+    Mesh mesh = cube;
+    const SharpenResult r = sharpen_creases(mesh, holes[0], picked, options);
+    EXPECT_FALSE(r.ok);
+    EXPECT_EQ(mesh.n_faces(), cube.n_faces());  // nothing added
+    return r.failure;
+  };
+  const CreasePick edge_low{Vec3(8, 0.5, 8), Vec3(8, 2, 8)};
+  const CreasePick edge_high{Vec3(8, 7.5, 8), Vec3(8, 6, 8)};
+  PickedCreases two;
+  two.corner = {edge_low, edge_high};
+  EXPECT_NE(refusal(two).find("three or more creases"), std::string::npos);
+  PickedCreases same_vertex;
+  same_vertex.corner = {edge_low, edge_high, {Vec3(8, 0.5, 7.9), Vec3(8, 2.05, 8)}};
+  EXPECT_NE(refusal(same_vertex).find("another pick took"), std::string::npos);
+  PickedCreases curve;
+  curve.curves = {{Vec3(8, 0.5, 8), Vec3(8, 2, 8), Vec3(8, 6, 8), Vec3(8, 7.5, 8)}};
+  SharpenOptions push;
+  push.method = SharpenMethod::PushDown;
+  EXPECT_NE(refusal(curve, push).find("split variant only"), std::string::npos);
+  PickedCreases far = curve;
+  far.curves[0].p4 = Vec3(8, 400, 8);
+  EXPECT_NE(refusal(far).find("P4"), std::string::npos);
+  // The edge's two ends head towards each other, and a third crease from the rim on the face
+  // x = 8 runs parallel to them, 2 below: no common point within a tenth of the hole's diameter.
+  PickedCreases parallel;
+  parallel.corner = {edge_low, edge_high, {Vec3(8, 0.5, 6), Vec3(8, 2, 6)}};
+  EXPECT_NE(refusal(parallel).find("do not meet"), std::string::npos);
+}
+
 TEST(Sharpen, RefusesPicksAwayFromTheHole) {
   Mesh mesh = build_mesh(testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2)).mesh;
   const auto holes = find_holes(mesh).holes;
