@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -26,6 +27,16 @@ struct Variant {
   std::string name;
   geo::FillOptions options;
 };
+
+//! \p run's result and how long it took, in milliseconds.
+template <class Run>
+std::pair<geo::SharpenResult, double> timed(Run&& run) {
+  const auto start = std::chrono::steady_clock::now();
+  geo::SharpenResult result = run();
+  return {
+      std::move(result),
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count()};
+}
 
 }  // namespace
 
@@ -177,11 +188,7 @@ int main(int argc, char** argv) {
           so.method = method;
           so.finish = variant.finish;
           so.tangents = tangents;
-          const auto start = std::chrono::steady_clock::now();
-          const geo::SharpenResult r = geo::sharpen_hole(mesh, hole, picks, so);
-          const double ms =
-              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                  .count();
+          const auto [r, ms] = timed([&] { return geo::sharpen_hole(mesh, hole, picks, so); });
           const std::string tangent_name =
               tangents == geo::PickTangents::Chord
                   ? std::string("chord")
@@ -192,9 +199,7 @@ int main(int argc, char** argv) {
                        variant_name, tangent_name, r.failure);
             continue;
           }
-          geo::HoleFillReport as_fill = r.fill;
-          as_fill.new_faces = r.patch;
-          const auto score = tmd::testing::score_fill(mesh, as_fill, *c, ch);
+          const auto score = tmd::testing::score_sharpen(mesh, r, *c, ch);
           fmt::print("| {} | {} | {} | {} | {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} |\n", name,
                      ch.id, variant_name, tangent_name,
                      method == geo::SharpenMethod::Split
@@ -233,11 +238,7 @@ int main(int argc, char** argv) {
         }
         geo::SharpenOptions so;
         so.tangents = tangents;
-        const auto start = std::chrono::steady_clock::now();
-        const geo::SharpenResult r = geo::sharpen_creases(mesh, hole, picked, so);
-        const double ms =
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                .count();
+        const auto [r, ms] = timed([&] { return geo::sharpen_creases(mesh, hole, picked, so); });
         const std::string tangent_name =
             tangents == geo::PickTangents::Chord
                 ? std::string("chord")
@@ -248,9 +249,7 @@ int main(int argc, char** argv) {
                      ch.id, tangent_name, r.failure);
           continue;
         }
-        geo::HoleFillReport as_fill = r.fill;
-        as_fill.new_faces = r.patch;
-        const auto score = tmd::testing::score_fill(mesh, as_fill, *c, ch);
+        const auto score = tmd::testing::score_sharpen(mesh, r, *c, ch);
         fmt::print(
             "| {} | {} | every crease (split) | {} | {} curve(s), {} creases to the corner | "
             "{:.2f} | {:.2f} | {:.2f} | {:.2f} |\n",

@@ -210,4 +210,11 @@ HoleScore score_fill(const geometry::Mesh& mesh, const geometry::HoleFillReport&
   return s;
 }
 
+HoleScore score_sharpen(const geometry::Mesh& mesh, const geometry::SharpenResult& result,
+                        const HoleCase& c, const CaseHole& hole) {
+  geometry::HoleFillReport as_fill = result.fill;
+  as_fill.new_faces = result.patch;
+  return score_fill(mesh, as_fill, c, hole);
+}
+
 }  // namespace touchmend::testing

@@ -15,6 +15,7 @@
 #include "server/geometry/intersection.h"
 #include "server/geometry/mesh.h"
 #include "server/geometry/metrics.h"
+#include "server/geometry/sharpen.h"
 
 namespace touchmend::testing {
 
@@ -80,5 +81,9 @@ std::map<std::pair<std::string, std::string>, AnchorNumbers> read_baseline();
 
 HoleScore score_fill(const geometry::Mesh& mesh, const geometry::HoleFillReport& fill,
                      const HoleCase& c, const CaseHole& hole);
+
+//! score_fill of a sharpen result's patch (the faces of the hole at the end).
+HoleScore score_sharpen(const geometry::Mesh& mesh, const geometry::SharpenResult& result,
+                        const HoleCase& c, const CaseHole& hole);
 
 }  // namespace touchmend::testing

@@ -179,7 +179,7 @@ PickedScore sharpen_picked(const testing::HoleCase& c, std::size_t case_hole,
   as_fill.new_faces = out.result.patch;
   const std::string problems = testing::check_fill_invariants(before, mesh, {as_fill}, holes);
   EXPECT_TRUE(problems.empty()) << problems;
-  out.score = testing::score_fill(mesh, as_fill, c, c.holes.at(case_hole));
+  out.score = testing::score_sharpen(mesh, out.result, c, c.holes.at(case_hole));
   return out;
 }
 
