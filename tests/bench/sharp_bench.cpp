@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +28,29 @@ struct Variant {
   std::string name;
   geo::FillOptions options;
 };
+
+//! A case's holed mesh, its holes and the crease plan of one of them, as picks are made on it.
+struct PlannedHole {
+  geo::Mesh mesh;
+  std::vector<geo::Hole> holes;
+  std::size_t index = 0;
+  geo::HoleCreasePlan plan;
+  const geo::Hole& hole() const { return holes[index]; }
+};
+
+std::optional<PlannedHole> plan_case_hole(const tmd::testing::HoleCase& c,
+                                          const tmd::testing::CaseHole& ch, double crease_angle) {
+  PlannedHole out;
+  out.mesh = geo::build_mesh(c.holed).mesh;
+  out.holes = geo::find_holes(out.mesh).holes;
+  const auto id = tmd::testing::matching_hole_id(out.holes, ch);
+  if (!id) return std::nullopt;
+  out.index = *geo::find_hole_by_id(out.holes, *id);
+  geo::CreaseOptions co;
+  co.crease_angle_deg = crease_angle;
+  out.plan = geo::plan_hole_creases(out.mesh, out.hole(), co);
+  return out;
+}
 
 //! \p run's result and how long it took, in milliseconds.
 template <class Run>
@@ -161,14 +185,11 @@ int main(int argc, char** argv) {
               method == geo::SharpenMethod::Split
                   ? std::string("split")
                   : fmt::format("push-down, finish {}", geo::to_string(variant.finish));
-          geo::Mesh mesh = geo::build_mesh(c->holed).mesh;
-          const auto holes = geo::find_holes(mesh).holes;
-          const auto id = tmd::testing::matching_hole_id(holes, ch);
-          if (!id) continue;
-          const geo::Hole& hole = holes[*geo::find_hole_by_id(holes, *id)];
-          geo::CreaseOptions co;
-          co.crease_angle_deg = crease_angle;
-          const geo::HoleCreasePlan plan = geo::plan_hole_creases(mesh, hole, co);
+          auto planned = plan_case_hole(*c, ch, crease_angle);
+          if (!planned) continue;
+          geo::Mesh& mesh = planned->mesh;
+          const geo::Hole& hole = planned->hole();
+          const geo::HoleCreasePlan& plan = planned->plan;
           const geo::CreaseCurve* pair = nullptr;
           for (const auto& curve : plan.curves)
             if (curve.to && pair == nullptr) pair = &curve;
@@ -213,14 +234,11 @@ int main(int argc, char** argv) {
       // P1..P4, the corner's creases as far and rim points.
       for (const geo::PickTangents tangents :
            {geo::PickTangents::Chord, geo::PickTangents::Crease}) {
-        geo::Mesh mesh = geo::build_mesh(c->holed).mesh;
-        const auto holes = geo::find_holes(mesh).holes;
-        const auto id = tmd::testing::matching_hole_id(holes, ch);
-        if (!id) continue;
-        const geo::Hole& hole = holes[*geo::find_hole_by_id(holes, *id)];
-        geo::CreaseOptions co;
-        co.crease_angle_deg = crease_angle;
-        const geo::HoleCreasePlan plan = geo::plan_hole_creases(mesh, hole, co);
+        auto planned = plan_case_hole(*c, ch, crease_angle);
+        if (!planned) continue;
+        geo::Mesh& mesh = planned->mesh;
+        const geo::Hole& hole = planned->hole();
+        const geo::HoleCreasePlan& plan = planned->plan;
         if (!plan.corner && plan.curves.size() < 2) continue;
         geo::PickedCreases picked;
         const double shift = pick_offset * hole.mean_edge_length;
