@@ -111,7 +111,7 @@ bool parse_sharpen_picks(const SharpenArgs& args, geometry::PickedCreases& picke
            "for more) and/or --corner (creases meeting inside it)\n";
     return false;
   }
-  if ((picked.curves.size() > 1 || !picked.corner.empty()) && args.method != "split") {
+  if (!picked.one_curve() && args.method != "split") {
     err << "error: several curves or a corner are retained by --method split only (the "
            "push-down follows one curve)\n";
     return false;
@@ -175,7 +175,7 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
         args.file, args.hole, holes.size());
     return kExitBadInput;
   }
-  const bool one_curve = picked.curves.size() == 1 && picked.corner.empty();
+  const bool one_curve = picked.one_curve();
   const geometry::SharpenResult r =
       one_curve ? geometry::sharpen_hole(mesh, holes[*index], picked.curves[0], options)
                 : geometry::sharpen_creases(mesh, holes[*index], picked, options);
@@ -214,8 +214,10 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
     out << j.dump(2) << "\n";
   } else {
     out << fill_text(r.fill);
-    out << (one_curve ? "curve: " + geometry::tangents_summary(r, options.tangents)
-                      : "creases: " + geometry::creases_summary(r, picked, options.tangents))
+    out << (one_curve
+                ? "curve: " + geometry::tangents_summary(r.crease_tangent_start,
+                                                         r.crease_tangent_end, options.tangents)
+                : "creases: " + geometry::creases_summary(r, picked, options.tangents))
         << "\n";
     if (options.method == geometry::SharpenMethod::PushDown)
       out << fmt::format(

@@ -157,6 +157,10 @@ bool interleaved(std::size_t a, std::size_t b, std::size_t c, std::size_t d) {
 
 }  // namespace
 
+double crease_fit_length(double perimeter, double mean_edge_length, double fit_length) {
+  return std::max(fit_length * perimeter / std::numbers::pi, 2.5 * mean_edge_length);
+}
+
 std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
                                            double angle_deg, double tolerance, double fit_length) {
   if (!at.is_valid() || !std::isfinite(tolerance) || !(tolerance > 0)) return std::nullopt;
@@ -223,7 +227,8 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   const std::size_t n = hole.loop.size();
   if (n < 3) return plan;
   const double diameter = hole.perimeter / std::numbers::pi;
-  const double fit_length = std::max(options.fit_length * diameter, 2.5 * hole.mean_edge_length);
+  const double fit_length =
+      crease_fit_length(hole.perimeter, hole.mean_edge_length, options.fit_length);
   const Vec3 normal = hole.is_simple ? hole.reference_normal : hole.normal;
   const ReferenceFrame frame = ReferenceFrame::from_normal(normal, hole.centroid);
   std::vector<Point2> polygon;

@@ -81,6 +81,10 @@ struct HoleCreasePlan {
   std::string summary;                 //!< one line for reports
 };
 
+//! The arc length over which a crease's tangent is fitted at a hole of \p perimeter: \p
+//! fit_length hole diameters (CreaseOptions::fit_length), at least 2.5 \p mean_edge_length.
+double crease_fit_length(double perimeter, double mean_edge_length, double fit_length);
+
 //! The creases at the boundary of \p hole (properties computed) and how they cross it.
 HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
                                  const CreaseOptions& options = {});

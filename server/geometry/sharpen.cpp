@@ -88,17 +88,29 @@ void fill_split(Mesh& mesh, const Hole& hole, const HoleCreasePlan& plan,
   result.ok = true;
 }
 
-//! take_crease_tangents on the rim of \p hole (loop indices of P2's and P3's vertices).
-void take_hole_crease_tangents(const Mesh& mesh, const Hole& hole, std::optional<std::size_t> start,
-                               std::optional<std::size_t> end, const SharpenOptions& options,
-                               HermitePoints& p, SharpenResult& result) {
-  if (options.tangents != PickTangents::Crease) return;
-  const CreaseTangentPicks taken = take_crease_tangents(
-      mesh, p, start ? hole.loop[*start] : VertexHandle(), end ? hole.loop[*end] : VertexHandle(),
-      hole.perimeter, hole.mean_edge_length, options);
-  p = taken.points;
-  result.crease_tangent_start = taken.start;
-  result.crease_tangent_end = taken.end;
+//! The crease's tangent at rim vertex \p at pointing along it towards \p pick, where \p pick
+//! lies on a crease from \p at (crease_tangent_towards with the options' angle and tolerance and
+//! the automatic plan's fit length, so a pair picked on the creases it pairs gets its curve).
+std::optional<Vec3> crease_direction(const Mesh& mesh, VertexHandle at, const Vec3& pick,
+                                     double perimeter, double mean_edge_length,
+                                     const SharpenOptions& options) {
+  if (!at.is_valid()) return std::nullopt;
+  return crease_tangent_towards(
+      mesh, at, pick, options.crease_angle_deg, options.crease_pick_tolerance * mean_edge_length,
+      crease_fit_length(perimeter, mean_edge_length, CreaseOptions{}.fit_length));
+}
+
+//! take_crease_tangents on the rim of \p hole (loop indices of P2's and P3's vertices); the
+//! picks unchanged with chord tangents.
+CreaseTangentPicks take_hole_crease_tangents(const Mesh& mesh, const Hole& hole,
+                                             std::optional<std::size_t> start,
+                                             std::optional<std::size_t> end,
+                                             const SharpenOptions& options,
+                                             const HermitePoints& picks) {
+  if (options.tangents != PickTangents::Crease) return {picks};
+  return take_crease_tangents(mesh, picks, start ? hole.loop[*start] : VertexHandle(),
+                              end ? hole.loop[*end] : VertexHandle(), hole.perimeter,
+                              hole.mean_edge_length, options);
 }
 
 }  // namespace
@@ -106,30 +118,16 @@ void take_hole_crease_tangents(const Mesh& mesh, const Hole& hole, std::optional
 CreaseTangentPicks take_crease_tangents(const Mesh& mesh, const HermitePoints& picks,
                                         VertexHandle at_p2, VertexHandle at_p3, double perimeter,
                                         double mean_edge_length, const SharpenOptions& options) {
-  CreaseTangentPicks out;
-  out.points = picks;
-  // The automatic plan's fit length (plan_hole_creases), so a pair picked on the creases it
-  // pairs gets its curve.
-  const double diameter = perimeter / std::numbers::pi;
-  const double fit_length = std::max(CreaseOptions{}.fit_length * diameter, 2.5 * mean_edge_length);
-  const double tolerance = options.crease_pick_tolerance * mean_edge_length;
+  CreaseTangentPicks out{picks};
   HermitePoints& p = out.points;
-  if (at_p2.is_valid()) {
-    const auto t =
-        crease_tangent_towards(mesh, at_p2, p.p1, options.crease_angle_deg, tolerance, fit_length);
-    if (t) {
-      p.p1 = p.p2 + (p.p1 - p.p2).norm() * *t;
-      out.start = true;
-    }
-  }
-  if (at_p3.is_valid()) {
-    const auto t =
-        crease_tangent_towards(mesh, at_p3, p.p4, options.crease_angle_deg, tolerance, fit_length);
-    if (t) {
-      p.p4 = p.p3 + (p.p4 - p.p3).norm() * *t;
-      out.end = true;
-    }
-  }
+  // P1 moves onto the tangent line at P2 at its own distance, P4 likewise at P3.
+  const auto take = [&](VertexHandle at, const Vec3& rim, Vec3& far) {
+    const auto t = crease_direction(mesh, at, far, perimeter, mean_edge_length, options);
+    if (t) far = rim + (far - rim).norm() * *t;
+    return t.has_value();
+  };
+  out.start = take(at_p2, p.p2, p.p1);
+  out.end = take(at_p3, p.p3, p.p4);
   return out;
 }
 
@@ -183,7 +181,11 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
       return i;
     return std::nullopt;
   };
-  take_hole_crease_tangents(mesh, hole, rim_vertex(p.p2), rim_vertex(p.p3), options, p, result);
+  const CreaseTangentPicks ends =
+      take_hole_crease_tangents(mesh, hole, rim_vertex(p.p2), rim_vertex(p.p3), options, p);
+  p = ends.points;
+  result.crease_tangent_start = ends.start;
+  result.crease_tangent_end = ends.end;
   const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
   if (!curve.curve) {
     result.failure = curve.failure;
@@ -306,9 +308,9 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
     const std::size_t i2 = plan.crossings[*a].loop_index, i3 = plan.crossings[*b].loop_index;
     p.p2 = plan.crossings[*a].position;
     p.p3 = plan.crossings[*b].position;
-    SharpenResult ends;
-    take_hole_crease_tangents(mesh, hole, i2, i3, options, p, ends);
-    result.crease_tangents_taken += int{ends.crease_tangent_start} + int{ends.crease_tangent_end};
+    const CreaseTangentPicks ends = take_hole_crease_tangents(mesh, hole, i2, i3, options, p);
+    p = ends.points;
+    result.crease_tangents_taken += int{ends.start} + int{ends.end};
     const HermiteCurveResult curve = make_hermite_curve(p, options.hermite, tolerance);
     if (!curve.curve) {
       result.failure = curve_name + curve.failure;
@@ -317,12 +319,10 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
     plan.curves.push_back({*a, *b, p, *curve.curve});
     if (k == 0) {
       result.points = p;
-      result.crease_tangent_start = ends.crease_tangent_start;
-      result.crease_tangent_end = ends.crease_tangent_end;
+      result.crease_tangent_start = ends.start;
+      result.crease_tangent_end = ends.end;
     }
   }
-  const double fit_length =
-      std::max(CreaseOptions{}.fit_length * diameter, 2.5 * hole.mean_edge_length);
   std::vector<std::size_t> corner_crossings;
   for (std::size_t k = 0; k < picked.corner.size(); ++k) {
     const auto far =
@@ -340,8 +340,7 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
     std::optional<Vec3> outward;
     if (options.tangents == PickTangents::Crease)
       outward =
-          crease_tangent_towards(mesh, c.vertex, *far, options.crease_angle_deg,
-                                 options.crease_pick_tolerance * hole.mean_edge_length, fit_length);
+          crease_direction(mesh, c.vertex, *far, hole.perimeter, hole.mean_edge_length, options);
     if (outward) {
       ++result.crease_tangents_taken;
     } else if (reach > tolerance) {
@@ -385,9 +384,8 @@ std::string push_down_summary(const SharpenResult& result, PushFinish finish) {
   return text;
 }
 
-std::string tangents_summary(const SharpenResult& result, PickTangents tangents) {
+std::string tangents_summary(bool start, bool end, PickTangents tangents) {
   if (tangents == PickTangents::Chord) return "chord tangents";
-  const bool start = result.crease_tangent_start, end = result.crease_tangent_end;
   if (start && end) return "tangents of the crease at both ends";
   if (start) return "tangent of the crease at P2, the chord at P3 (P4 is on no crease from P3)";
   if (end) return "tangent of the crease at P3, the chord at P2 (P1 is on no crease from P2)";

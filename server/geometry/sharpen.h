@@ -118,6 +118,8 @@ struct CreasePick {
 struct PickedCreases {
   std::vector<HermitePoints> curves;
   std::vector<CreasePick> corner;
+  //! The thesis' pick: one curve and no corner.
+  bool one_curve() const { return curves.size() == 1 && corner.empty(); }
 };
 
 //! The split variant for any number of picked creases, beyond the thesis (whose one curve P1..P4
@@ -127,7 +129,8 @@ struct PickedCreases {
 //! (PickTangents::Crease, where the far pick lies on a crease from that vertex) or the chord
 //! from the far pick, and the corner creases are extended to the point nearest all their tangent
 //! lines (join_at_corner, within the automatic plan's corner tolerance). The hole is then filled
-//! split along every curve. Every pick reaches the rim at its own boundary vertex.
+//! split along every curve. Every pick reaches the rim at its own boundary vertex. (One curve
+//! pushed down is sharpen_hole's.)
 SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases& picked,
                               const SharpenOptions& options = {});
 
@@ -135,9 +138,10 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
 //! (or "..., fairing undone: <why>").
 std::string push_down_summary(const SharpenResult& result, PushFinish finish);
 
-//! One line on where the curve's end directions came from, for reports: "tangents of the
-//! crease at both ends", "... at P2, the chord at P3", "chord tangents".
-std::string tangents_summary(const SharpenResult& result, PickTangents tangents);
+//! One line on where the curve's end directions came from (\p start, \p end: whether P2's and
+//! P3's ends took the crease's tangent), for reports: "tangents of the crease at both ends",
+//! "... at P2, the chord at P3", "chord tangents".
+std::string tangents_summary(bool start, bool end, PickTangents tangents);
 
 //! One line on what sharpen_creases followed, for reports: "1 curve and 3 creases meeting at a
 //! corner (8, 8, 8); 5 of 5 along their crease's tangent".

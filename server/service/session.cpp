@@ -479,12 +479,11 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
       sharp_tool_ = std::move(tool);
       sharp_tool_principal_ = principal;
       response.set_version(document_.version);
-      geometry::SharpenResult ends;  // for the tangents' summary line
-      ends.crease_tangent_start = sharp_tool_->crease_tangent_start;
-      ends.crease_tangent_end = sharp_tool_->crease_tangent_end;
       response.set_summary("sharp-edge tool on a patch of " +
                            std::to_string(sharp_tool_->patch_faces.size()) + " faces; " +
-                           geometry::tangents_summary(ends, sharp_tool_->tangents));
+                           geometry::tangents_summary(sharp_tool_->crease_tangent_start,
+                                                      sharp_tool_->crease_tangent_end,
+                                                      sharp_tool_->tangents));
       break;
     }
     case v1::SharpEdgeRequest::kAdjust: {

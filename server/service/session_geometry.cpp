@@ -541,16 +541,11 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
                       "several curves or a corner are retained by the split method only"};
     return outcome;
   }
-  for (const auto& p : request.corner())
-    if (!finite_point(p)) {
-      outcome.status = {StatusCode::InvalidArgument, "a point is not finite"};
-      return outcome;
-    }
-  for (const auto& p : request.points())
-    if (!finite_point(p)) {
-      outcome.status = {StatusCode::InvalidArgument, "a point is not finite"};
-      return outcome;
-    }
+  if (!std::all_of(request.points().begin(), request.points().end(), finite_point) ||
+      !std::all_of(request.corner().begin(), request.corner().end(), finite_point)) {
+    outcome.status = {StatusCode::InvalidArgument, "a point is not finite"};
+    return outcome;
+  }
   if (!(request.depth() >= 0) || !(request.k1() >= 0) || !(request.k4() >= 0) ||
       !std::isfinite(request.depth() + request.k1() + request.k4())) {
     outcome.status = {StatusCode::InvalidArgument, "k1, k4 and depth must be finite and >= 0"};
@@ -618,10 +613,13 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
   summary = options.method == geometry::SharpenMethod::PushDown
                 ? fmt::format("sharp edge retained on hole {} (push-down: {}; {})",
                               request.hole_id(), geometry::push_down_summary(r, options.finish),
-                              geometry::tangents_summary(r, options.tangents))
+                              geometry::tangents_summary(r.crease_tangent_start,
+                                                         r.crease_tangent_end, options.tangents))
             : one_curve
                 ? fmt::format("sharp edge retained on hole {} (split along the curve; {})",
-                              request.hole_id(), geometry::tangents_summary(r, options.tangents))
+                              request.hole_id(),
+                              geometry::tangents_summary(r.crease_tangent_start,
+                                                         r.crease_tangent_end, options.tangents))
                 : fmt::format("sharp edges retained on hole {} (split along {})", request.hole_id(),
                               geometry::creases_summary(r, picked, options.tangents));
   outcome.delta = edit_delta(document, std::move(vertices), r.patch, first_free);

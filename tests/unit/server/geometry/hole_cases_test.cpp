@@ -251,7 +251,9 @@ TEST(SharpCasesPicked, CreaseTangentsAreNotBiasedByAPickBesideTheCrease) {
   ASSERT_TRUE(chord.result.ok) << chord.result.failure;
   EXPECT_FALSE(chord.result.crease_tangent_start || chord.result.crease_tangent_end);
   EXPECT_GT(chord.score.crease_permille, crease.score.crease_permille + 0.5);
-  EXPECT_NE(tangents_summary(crease.result, PickTangents::Crease).find("both ends"),
+  EXPECT_NE(tangents_summary(crease.result.crease_tangent_start, crease.result.crease_tangent_end,
+                             PickTangents::Crease)
+                .find("both ends"),
             std::string::npos);
 }
 
