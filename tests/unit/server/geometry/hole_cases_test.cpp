@@ -8,6 +8,7 @@
 // CGAL's fills of them intersect the mesh) are closed by the intersection-avoiding 3D
 // triangulation and by ear clipping.
 
+#include <optional>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -137,6 +138,23 @@ struct PickedScore {
   SharpenResult result;
   testing::HoleScore score;
 };
+//! Case hole \p case_hole of \p c filled alone without crease retaining (the fill the picks
+//! must beat), scored; none if it could not be filled.
+std::optional<testing::HoleScore> plain_fill_score(const testing::HoleCase& c,
+                                                   std::size_t case_hole) {
+  Mesh mesh = build_mesh(c.holed).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const auto id = testing::matching_hole_id(holes, c.holes.at(case_hole));
+  EXPECT_TRUE(id);
+  if (!id) return std::nullopt;
+  FillOptions plain;
+  plain.sharp = SharpMode::Off;
+  const HoleFillReport p = fill_hole(mesh, holes[*find_hole_by_id(holes, *id)], plain);
+  EXPECT_TRUE(p.filled) << p.reason;
+  if (!p.filled) return std::nullopt;
+  return testing::score_fill(mesh, p, c, c.holes.at(case_hole));
+}
+
 //! Which of the detected creases the operator picks: the first pair (the thesis' four points),
 //! or every crease the detection draws a curve on (pairs as P1..P4, a corner's creases as their
 //! far and rim points).
@@ -211,24 +229,17 @@ TEST(SharpCasesPicked, PointsPickedOnTheCreaseRetainItCloserThanThePlainFill) {
   std::string error;
   const auto c = testing::load_case("rocker-arm_sharp", error);
   ASSERT_TRUE(c) << error;
-  Mesh plain_mesh = build_mesh(c->holed).mesh;
-  const auto holes = find_holes(plain_mesh).holes;
-  const auto id = testing::matching_hole_id(holes, c->holes.at(0));
-  ASSERT_TRUE(id);
-  FillOptions plain;
-  plain.sharp = SharpMode::Off;
-  const HoleFillReport p = fill_hole(plain_mesh, holes[*find_hole_by_id(holes, *id)], plain);
-  ASSERT_TRUE(p.filled) << p.reason;
-  const testing::HoleScore s_plain = testing::score_fill(plain_mesh, p, *c, c->holes.at(0));
+  const auto s_plain = plain_fill_score(*c, 0);
+  ASSERT_TRUE(s_plain);
   for (const SharpenMethod method : {SharpenMethod::Split, SharpenMethod::PushDown}) {
     SharpenOptions options;
     options.method = method;
     const PickedScore picked = sharpen_picked(*c, 0, options);
     ASSERT_TRUE(picked.result.ok) << to_string(method) << ": " << picked.result.failure;
     EXPECT_TRUE(picked.result.crease_tangent_start && picked.result.crease_tangent_end);
-    EXPECT_LT(picked.score.hausdorff_permille, s_plain.hausdorff_permille - 2.0)
+    EXPECT_LT(picked.score.hausdorff_permille, s_plain->hausdorff_permille - 2.0)
         << to_string(method);
-    EXPECT_LT(picked.score.mean_permille, s_plain.mean_permille - 0.5) << to_string(method);
+    EXPECT_LT(picked.score.mean_permille, s_plain->mean_permille - 0.5) << to_string(method);
   }
 }
 
@@ -269,20 +280,12 @@ TEST(SharpCasesPicked, EveryCreasePickedRetainsACornerCloserThanThePlainFill) {
     std::string error;
     const auto c = testing::load_case(name, error);
     ASSERT_TRUE(c) << error;
-    Mesh plain_mesh = build_mesh(c->holed).mesh;
-    const auto holes = find_holes(plain_mesh).holes;
-    const auto id = testing::matching_hole_id(holes, c->holes.at(case_hole));
-    ASSERT_TRUE(id);
-    FillOptions plain;
-    plain.sharp = SharpMode::Off;
-    const HoleFillReport p = fill_hole(plain_mesh, holes[*find_hole_by_id(holes, *id)], plain);
-    ASSERT_TRUE(p.filled) << p.reason;
-    const testing::HoleScore s_plain =
-        testing::score_fill(plain_mesh, p, *c, c->holes.at(case_hole));
+    const auto s_plain = plain_fill_score(*c, case_hole);
+    ASSERT_TRUE(s_plain) << name;
     const PickedScore every = sharpen_picked(*c, case_hole, {}, 0, PickScope::EveryCrease);
     ASSERT_TRUE(every.result.ok) << name << ": " << every.result.failure;
-    EXPECT_LT(every.score.hausdorff_permille, s_plain.hausdorff_permille - 2.0) << name;
-    EXPECT_LT(every.score.mean_permille, s_plain.mean_permille - 0.2) << name;
+    EXPECT_LT(every.score.hausdorff_permille, s_plain->hausdorff_permille - 2.0) << name;
+    EXPECT_LT(every.score.mean_permille, s_plain->mean_permille - 0.2) << name;
     if (name == "fandisk_sharp") {
       ASSERT_TRUE(every.result.corner);
       EXPECT_EQ(every.result.crease_tangents_taken, 5);  // the pair's two ends, three creases
