@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <unordered_set>
 
 #include <Eigen/Eigenvalues>
@@ -19,6 +20,9 @@ constexpr Vec3 kNoOpposite{std::numeric_limits<double>::quiet_NaN(), 0, 0};
 struct Piece {
   std::vector<int> loop;  // pool indices
   int depth = 0;
+  //! The frame the split that made this piece found it simple in (tested without the chord's
+  //! points, which lie on the chord and project onto the same segment): not searched again.
+  std::optional<ReferenceFrame> frame;
 };
 
 class PiecewiseFiller {
@@ -177,7 +181,8 @@ class PiecewiseFiller {
       return true;
     }
     ReferenceFrame frame;
-    if (find_simple_frame(loop, frame)) {
+    if (piece.frame) frame = *piece.frame;
+    if (piece.frame || find_simple_frame(loop, frame)) {
       std::vector<Point2> polygon;
       for (int v : loop) polygon.push_back(frame.project(pool_[static_cast<std::size_t>(v)]));
       const auto blocked = local_blocked(loop);
@@ -283,6 +288,7 @@ class PiecewiseFiller {
     // Halves are tested without their chord points: those lie on the straight chord, which
     // projects to the same segment.
     const Candidate* chosen = nullptr;
+    std::optional<std::array<ReferenceFrame, 2>> chosen_frames;
     int valid_seen = 0;
     for (const Candidate& c : candidates) {
       const int a = loop[c.i], b = loop[c.j];
@@ -298,15 +304,20 @@ class PiecewiseFiller {
       std::vector<int> half2;
       for (std::size_t k = c.j; k != c.i; k = (k + 1) % n) half2.push_back(loop[k]);
       half2.push_back(a);
-      ReferenceFrame f;
-      if (find_simple_frame(half1, f) && find_simple_frame(half2, f)) {
+      std::array<ReferenceFrame, 2> frames;
+      if (find_simple_frame(half1, frames[0]) && find_simple_frame(half2, frames[1])) {
         chosen = &c;
+        chosen_frames = frames;
         break;
       }
       if (++valid_seen >= 5) break;
     }
     if (!chosen) return false;
     halves = make_halves(piece, chosen->i, chosen->j);
+    if (chosen_frames) {
+      halves[0].frame = (*chosen_frames)[0];
+      halves[1].frame = (*chosen_frames)[1];
+    }
     return true;
   }
 
