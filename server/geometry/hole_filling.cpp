@@ -11,6 +11,7 @@
 #include "server/geometry/bvh.h"
 #include "server/geometry/ear_clipping.h"
 #include "server/geometry/face_index.h"
+#include "server/geometry/face_normals.h"
 #include "server/geometry/intersection.h"
 #include "server/geometry/liepa_triangulation.h"
 #include "server/geometry/local_map.h"
@@ -448,34 +449,6 @@ struct ShapeDecision {
   //! which follows them (kept flat on piecewise-planar surroundings, faired otherwise).
   bool feature = false;
   std::string reason;
-};
-
-//! Unit face normals of a hole's neighbourhood, each computed once: the shape decision reads
-//! every face around the boundary and every edge within two rings, most faces several times.
-class FaceNormals {
- public:
-  FaceNormals(const Mesh& mesh, std::size_t expected) : mesh_(mesh), normals_(expected) {}
-
-  Vec3 operator()(FaceHandle f) {
-    if (const Vec3* n = normals_.find(f.idx())) return *n;
-    const Vec3 n = mesh_.calc_face_normal(f);
-    normals_.insert(f.idx(), n);
-    return n;
-  }
-
-  //! Cosine of the dihedral angle at interior edge \p e (the angle between its faces'
-  //! normals; 1 when either face is degenerate). The decisions compare and rank these
-  //! cosines, so the angle itself (an atan2) is computed only for what is reported.
-  double dihedral_cos(EdgeHandle e) {
-    const Vec3 a = (*this)(mesh_.face_handle(mesh_.halfedge_handle(e, 0)));
-    const Vec3 b = (*this)(mesh_.face_handle(mesh_.halfedge_handle(e, 1)));
-    if (a.sqrnorm() == 0 || b.sqrnorm() == 0) return 1.0;
-    return std::clamp(OpenMesh::dot(a, b), -1.0, 1.0);
-  }
-
- private:
-  const Mesh& mesh_;
-  LocalMap<Vec3> normals_;
 };
 
 double degrees_of_cos(double c) {

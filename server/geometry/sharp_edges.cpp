@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 #include <fmt/format.h>
 
+#include "server/geometry/face_normals.h"
 #include "server/geometry/intersection.h"
 #include "server/geometry/liepa_triangulation.h"
 #include "server/geometry/planar_triangulation.h"
@@ -20,20 +21,22 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-double dihedral_deg(const Mesh& mesh, HalfedgeHandle h) {
-  const Vec3 a = mesh.calc_face_normal(mesh.face_handle(h));
-  const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
+double dihedral_deg(FaceNormals& normals, HalfedgeHandle h) {
+  const Mesh& mesh = normals.mesh();
+  const Vec3 a = normals(mesh.face_handle(h));
+  const Vec3 b = normals(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
   return std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) / kDeg;
 }
 
 //! Whether the dihedral angle at \p h's edge exceeds the threshold, compared as cosines (the
 //! crease tracing asks this of every edge around each vertex it visits; no trigonometry). A
 //! degenerate face has no normal and makes no crease.
-bool is_sharp(const Mesh& mesh, HalfedgeHandle h, double threshold_deg) {
+bool is_sharp(FaceNormals& normals, HalfedgeHandle h, double threshold_deg) {
+  const Mesh& mesh = normals.mesh();
   if (mesh.is_boundary(mesh.edge_handle(h))) return false;
   if (threshold_deg >= 180.0) return false;
-  const Vec3 a = mesh.calc_face_normal(mesh.face_handle(h));
-  const Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
+  const Vec3 a = normals(mesh.face_handle(h));
+  const Vec3 b = normals(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
   if (a.sqrnorm() == 0 || b.sqrnorm() == 0) return false;
   return OpenMesh::dot(a, b) < std::cos(threshold_deg * kDeg);
 }
@@ -45,21 +48,26 @@ double angle_between(const Vec3& a, const Vec3& b) {
 //! Follows the crease from the boundary vertex along \p first away from the hole: at each
 //! vertex the sharp edge that continues straightest (turning less than 60°), until the length
 //! budget, another boundary or the end of the crease.
-std::vector<Vec3> trace_crease(const Mesh& mesh, HalfedgeHandle first, double threshold_deg,
+std::vector<Vec3> trace_crease(FaceNormals& normals, HalfedgeHandle first, double threshold_deg,
                                double max_length) {
+  const Mesh& mesh = normals.mesh();
   std::vector<Vec3> points{mesh.point(mesh.from_vertex_handle(first)),
                            mesh.point(mesh.to_vertex_handle(first))};
   double length = (points[1] - points[0]).norm();
   VertexHandle previous = mesh.from_vertex_handle(first);
   VertexHandle current = mesh.to_vertex_handle(first);
-  std::set<int> visited{previous.idx(), current.idx()};
+  // At most 64 points: a linear search beats a tree.
+  std::vector<int> visited{previous.idx(), current.idx()};
+  const auto was_visited = [&](VertexHandle v) {
+    return std::find(visited.begin(), visited.end(), v.idx()) != visited.end();
+  };
   while (length < max_length && points.size() < 64 && !mesh.is_boundary(current)) {
     const Vec3 direction = (mesh.point(current) - mesh.point(previous)).normalize_cond();
     HalfedgeHandle best;
     double best_cos = std::cos(60.0 * kDeg);
     for (const HalfedgeHandle h : mesh.voh_range(current)) {
       const VertexHandle w = mesh.to_vertex_handle(h);
-      if (w == previous || visited.count(w.idx()) || !is_sharp(mesh, h, threshold_deg)) continue;
+      if (w == previous || was_visited(w) || !is_sharp(normals, h, threshold_deg)) continue;
       const double c =
           OpenMesh::dot((mesh.point(w) - mesh.point(current)).normalize_cond(), direction);
       if (c > best_cos) {
@@ -70,7 +78,7 @@ std::vector<Vec3> trace_crease(const Mesh& mesh, HalfedgeHandle first, double th
     if (!best.is_valid()) break;
     previous = current;
     current = mesh.to_vertex_handle(best);
-    visited.insert(current.idx());
+    visited.push_back(current.idx());
     points.push_back(mesh.point(current));
     length += (points.back() - points[points.size() - 2]).norm();
   }
@@ -122,9 +130,9 @@ std::pair<double, double> wedge_angles(const Vec3& normal, const Vec3& prev, con
   return {phi, interior_angle(pa, pb, pc)};
 }
 
-Vec3 vertex_normal(const Mesh& mesh, VertexHandle v) {
+Vec3 vertex_normal(FaceNormals& normals, VertexHandle v) {
   Vec3 n(0, 0, 0);
-  for (const FaceHandle f : mesh.vf_range(v)) n += mesh.calc_face_normal(f);
+  for (const FaceHandle f : normals.mesh().vf_range(v)) n += normals(f);
   return n.normalize_cond();
 }
 
@@ -169,9 +177,10 @@ std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, co
   const double budget = std::max(1.5 * (pick - origin).norm() + tolerance, fit_length);
   std::optional<Vec3> best;
   double best_distance2 = tolerance * tolerance;
+  FaceNormals normals(mesh, 64);
   for (const HalfedgeHandle h : mesh.voh_range(at)) {
-    if (!is_sharp(mesh, h, angle_deg)) continue;
-    const std::vector<Vec3> polyline = trace_crease(mesh, h, angle_deg, budget);
+    if (!is_sharp(normals, h, angle_deg)) continue;
+    const std::vector<Vec3> polyline = trace_crease(normals, h, angle_deg, budget);
     double distance2 = std::numeric_limits<double>::infinity();
     for (std::size_t i = 1; i < polyline.size(); ++i)
       distance2 =
@@ -236,6 +245,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
 
   // Weaker sharp edges are candidates too, but only as partners of a strong crossing.
   const double weak_angle = options.partner_angle_deg;
+  FaceNormals normals(mesh, 16 * n);  // the faces around the boundary and along the creases
   std::vector<CreaseCrossing> found;
   for (std::size_t i = 0; i < n; ++i) {
     const VertexHandle b = hole.loop[i];
@@ -243,12 +253,12 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     const VertexHandle next = hole.loop[(i + 1) % n];
     for (const HalfedgeHandle h : mesh.voh_range(b)) {
       const VertexHandle w = mesh.to_vertex_handle(h);
-      if (w == prev || w == next || !is_sharp(mesh, h, weak_angle)) continue;
-      const std::vector<Vec3> polyline = trace_crease(mesh, h, weak_angle, 4.0 * fit_length);
+      if (w == prev || w == next || !is_sharp(normals, h, weak_angle)) continue;
+      const std::vector<Vec3> polyline = trace_crease(normals, h, weak_angle, 4.0 * fit_length);
       const Vec3 outward = fitted_tangent(polyline, fit_length);
       if (!(outward.norm() > 0)) continue;
       const Vec3 inward = -outward;
-      const auto [phi, corner] = wedge_angles(vertex_normal(mesh, b), mesh.point(prev),
+      const auto [phi, corner] = wedge_angles(vertex_normal(normals, b), mesh.point(prev),
                                               mesh.point(b), mesh.point(next), inward);
       // Strictly inside the hole's corner at b (a crease along the boundary is not a crossing).
       if (!(std::min(phi, corner - phi) > 0.0)) continue;
@@ -269,12 +279,12 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
         }
         walked += step;
       }
-      c.dihedral_deg = dihedral_deg(mesh, h);
+      c.dihedral_deg = dihedral_deg(normals, h);
       // Convex (a ridge) when the face on one side sees the other side's far vertex below it.
       const FaceHandle f0 = mesh.face_handle(h);
       const VertexHandle across =
           mesh.to_vertex_handle(mesh.next_halfedge_handle(mesh.opposite_halfedge_handle(h)));
-      c.convex = OpenMesh::dot(mesh.calc_face_normal(f0), mesh.point(across) - c.position) < 0;
+      c.convex = OpenMesh::dot(normals(f0), mesh.point(across) - c.position) < 0;
       c.traced_edges = polyline.size() - 1;
       found.push_back(c);
     }
