@@ -735,6 +735,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
       const std::vector<VertexHandle> free = free_vertices_of(p);
       if (free.empty()) continue;
       FairingOptions fo = options.fairing;
+      fo.in_patch = [&region_of](FaceHandle f) { return region_of(f) >= 0; };
       if (pieces > 1)
         fo.ignore_face = [&region_of, p](FaceHandle f) {
           const int q = region_of(f);

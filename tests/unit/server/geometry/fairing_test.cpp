@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <functional>
+#include <numbers>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -17,18 +19,20 @@ namespace {
 struct CapFill {
   Mesh mesh;
   std::vector<VertexHandle> free;
+  std::vector<FaceHandle> faces;  //!< the patch
 };
 
 CapFill flat_cap_fill() {
   const MeshSoup s = testing::remove_faces(testing::uv_sphere(1.0, 48, 32),
                                            [](const Vec3& c) { return c[2] > 0.8; });
-  CapFill out{build_mesh(s).mesh, {}};
+  CapFill out{build_mesh(s).mesh, {}, {}};
   const auto holes = find_holes(out.mesh).holes;
   FillOptions o;
   o.shape = PatchShape::Flat;
   const auto r = fill_hole(out.mesh, holes.at(0), o);
   EXPECT_TRUE(r.filled) << r.reason;
   out.free = r.new_vertices;
+  out.faces = r.new_faces;
   return out;
 }
 
@@ -61,10 +65,74 @@ TEST(Fairing, SurroundingsOnASphereAreContinuedExactly) {
   EXPECT_GT(plain_error, 1e-4);  // the thin plate flattens the cap
 
   CapFill f = flat_cap_fill();
-  const FairingReport r = fair_vertices(f.mesh, f.free);
+  FairingOptions on_the_fit;
+  on_the_fit.match_facet_offset = false;
+  const FairingReport r = fair_vertices(f.mesh, f.free, on_the_fit);
   ASSERT_TRUE(r.ok) << r.failure;
   EXPECT_EQ(r.base_surface, "sphere");
   EXPECT_LT(max_radius_error(f.mesh, f.free), 1e-9);
+}
+
+//! Area-weighted mean of the radial deviation (|x| - 1) over triangles, by their edge
+//! midpoints.
+double mean_midpoint_deviation(const Mesh& m, const std::vector<FaceHandle>& faces) {
+  double area = 0, sum = 0;
+  for (const FaceHandle f : faces) {
+    std::vector<Vec3> p;
+    for (const auto v : m.fv_range(f)) p.push_back(m.point(v));
+    const double a = 0.5 * OpenMesh::cross(p[1] - p[0], p[2] - p[0]).norm();
+    double mean = 0;
+    for (int i = 0; i < 3; ++i) mean += (0.5 * (p[i] + p[(i + 1) % 3])).norm() - 1.0;
+    area += a;
+    sum += a * mean / 3.0;
+  }
+  return sum / area;
+}
+
+TEST(Fairing, PatchTrianglesSitAsFarFromTheSphereAsTheSurroundingOnes) {
+  CapFill f = flat_cap_fill();
+  std::vector<char> in_patch(f.mesh.n_faces(), 0);
+  for (const FaceHandle g : f.faces) in_patch[static_cast<std::size_t>(g.idx())] = 1;
+  FairingOptions options;
+  options.in_patch = [&](FaceHandle g) { return in_patch[static_cast<std::size_t>(g.idx())] != 0; };
+  const FairingReport r = fair_vertices(f.mesh, f.free, options);
+  ASSERT_TRUE(r.ok) << r.failure;
+  EXPECT_EQ(r.base_surface, "sphere");
+  // Still the sphere, offset: every free vertex at one radius, off 1 by less than the sag of
+  // the patch's longest edge (l^2 / 8).
+  double lo = 2, hi = 0;
+  for (const auto v : f.free) {
+    lo = std::min(lo, f.mesh.point(v).norm());
+    hi = std::max(hi, f.mesh.point(v).norm());
+  }
+  EXPECT_LT(hi - lo, 1e-9);
+  double longest = 0;
+  for (const FaceHandle g : f.faces)
+    for (const auto h : f.mesh.fh_range(g)) longest = std::max(longest, f.mesh.calc_edge_length(h));
+  EXPECT_GT(std::abs(lo - 1.0), 1e-6);
+  EXPECT_LT(std::abs(lo - 1.0), longest * longest / 8);
+  // The surroundings the fit used: the faces within two rings of the free vertices, outside
+  // the patch. Their triangles and the patch's lie at the same mean deviation.
+  std::set<int> near{};
+  std::vector<VertexHandle> ring(f.free.begin(), f.free.end());
+  for (const auto v : ring) near.insert(v.idx());
+  for (int r2 = 0; r2 < 2; ++r2) {
+    std::vector<VertexHandle> next;
+    for (const auto v : ring)
+      for (const auto w : f.mesh.vv_range(v))
+        if (near.insert(w.idx()).second) next.push_back(w);
+    ring = next;
+  }
+  std::vector<FaceHandle> surroundings;
+  for (const auto g : f.mesh.faces()) {
+    if (in_patch[static_cast<std::size_t>(g.idx())]) continue;
+    bool inside = true;
+    for (const auto v : f.mesh.fv_range(g)) inside = inside && near.count(v.idx()) > 0;
+    if (inside) surroundings.push_back(g);
+  }
+  ASSERT_FALSE(surroundings.empty());
+  EXPECT_NEAR(mean_midpoint_deviation(f.mesh, f.faces),
+              mean_midpoint_deviation(f.mesh, surroundings), 1e-8);
 }
 
 //! A 16x16 grid over the graph of \p height with a round hole of radius 4, filled flat (the
@@ -74,7 +142,7 @@ TEST(Fairing, SurroundingsOnASphereAreContinuedExactly) {
 //! axis, as the refined patch's is (a mended patch can leave a rim vertex with no free
 //! neighbour, and the fit is then close, not exact).
 CapFill flat_grid_fill(const std::function<double(double, double)>& height) {
-  CapFill out{build_mesh(testing::grid_with_round_hole(height)).mesh, {}};
+  CapFill out{build_mesh(testing::grid_with_round_hole(height)).mesh, {}, {}};
   const auto holes = find_holes(out.mesh).holes;
   FillOptions o;
   o.shape = PatchShape::Flat;
@@ -111,7 +179,9 @@ TEST(Fairing, SurroundingsOnAQuadricAreContinuedExactly) {
   EXPECT_GT(max_height_error(plain.mesh, plain.free, height), 1e-3) << "plain fairing";
 
   CapFill f = flat_grid_fill(height);
-  const FairingReport r = fair_vertices(f.mesh, f.free);
+  FairingOptions on_the_fit;
+  on_the_fit.match_facet_offset = false;
+  const FairingReport r = fair_vertices(f.mesh, f.free, on_the_fit);
   ASSERT_TRUE(r.ok) << r.failure;
   EXPECT_EQ(r.base_surface, "quadric");
   EXPECT_LT(max_height_error(f.mesh, f.free, height), 1e-9);
