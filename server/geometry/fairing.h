@@ -34,11 +34,14 @@ struct FairingOptions {
   //! surface describes (measured on the cases: 0.05 takes spheres and smooth scan patches,
   //! 0.1-0.2 takes bumpy ones, where the fit is a worse guess than plain fairing).
   double base_fit_tolerance = 0.05;
-  //! With a base surface: move the free vertices along its normal so that the patch's
-  //! triangles lie at the same mean deviation from it as the surroundings' triangles (a
-  //! triangle is a chord, inside a convex surface by up to its sag; the fit goes through the
-  //! vertices, the surface the mesh shows is its triangles). Off: the vertices stay on the
-  //! continued base surface exactly.
+  //! With a base surface: move the free vertices along its normal (by a bump that vanishes at
+  //! the fixed rings) so that the patch's triangles lie off it as the surroundings' do: a
+  //! triangle is a chord, inside a convex surface by up to its sag, and the fit goes through
+  //! the vertices while the surface the mesh shows is its triangles. The patch's triangles get
+  //! the surroundings' sag on top of their corners' faired deviation, or, where the thin plate
+  //! carried the corners farther off than any fixed vertex is (an overshoot), the
+  //! surroundings' mean triangle deviation. Off: the vertices stay on the continued base
+  //! surface exactly.
   bool match_facet_offset = true;
   //! The patch's own faces (those around the free vertices, and triangles across the hole's
   //! rim that have no free corner), which are not the surroundings' in match_facet_offset.

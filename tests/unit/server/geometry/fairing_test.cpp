@@ -1,5 +1,6 @@
 #include "server/geometry/fairing.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -98,21 +99,26 @@ TEST(Fairing, PatchTrianglesSitAsFarFromTheSphereAsTheSurroundingOnes) {
   const FairingReport r = fair_vertices(f.mesh, f.free, options);
   ASSERT_TRUE(r.ok) << r.failure;
   EXPECT_EQ(r.base_surface, "sphere");
-  // Still the sphere, offset: every free vertex at one radius, off 1 by less than the sag of
-  // the patch's longest edge (l^2 / 8).
-  double lo = 2, hi = 0;
-  for (const auto v : f.free) {
-    lo = std::min(lo, f.mesh.point(v).norm());
-    hi = std::max(hi, f.mesh.point(v).norm());
-  }
-  EXPECT_LT(hi - lo, 1e-9);
+  // Off the sphere by a bump that vanishes towards the fixed rim (a clamped plate under a
+  // uniform load), nowhere by more than the sag of the patch's longest edge (l^2 / 8).
   double longest = 0;
   for (const FaceHandle g : f.faces)
     for (const auto h : f.mesh.fh_range(g)) longest = std::max(longest, f.mesh.calc_edge_length(h));
-  EXPECT_GT(std::abs(lo - 1.0), 1e-6);
-  EXPECT_LT(std::abs(lo - 1.0), longest * longest / 8);
+  double deepest = 0, next_to_rim = 0;
+  for (const auto v : f.free) {
+    const double d = std::abs(f.mesh.point(v).norm() - 1.0);
+    deepest = std::max(deepest, d);
+    bool on_rim = false;
+    for (const auto w : f.mesh.vv_range(v))
+      on_rim = on_rim || std::find(f.free.begin(), f.free.end(), w) == f.free.end();
+    if (on_rim) next_to_rim = std::max(next_to_rim, d);
+  }
+  EXPECT_GT(deepest, 1e-6);
+  EXPECT_LT(deepest, longest * longest / 8);
+  EXPECT_LT(next_to_rim, deepest);
   // The surroundings the fit used: the faces within two rings of the free vertices, outside
-  // the patch. Their triangles and the patch's lie at the same mean deviation.
+  // the patch. Their triangles and the patch's lie at the same mean deviation (to 0.1%: the
+  // sphere's curvature leaves a second-order rest after two steps).
   std::set<int> near{};
   std::vector<VertexHandle> ring(f.free.begin(), f.free.end());
   for (const auto v : ring) near.insert(v.idx());
@@ -132,7 +138,7 @@ TEST(Fairing, PatchTrianglesSitAsFarFromTheSphereAsTheSurroundingOnes) {
   }
   ASSERT_FALSE(surroundings.empty());
   EXPECT_NEAR(mean_midpoint_deviation(f.mesh, f.faces),
-              mean_midpoint_deviation(f.mesh, surroundings), 1e-8);
+              mean_midpoint_deviation(f.mesh, surroundings), 1e-6);
 }
 
 //! A 16x16 grid over the graph of \p height with a round hole of radius 4, filled flat (the
