@@ -169,6 +169,21 @@ double mean_deviation(const BaseSurface& base, const Vec3& a, const Vec3& b, con
          3.0;
 }
 
+//! Area-weighted sums over triangles of their deviation from a base surface: the triangles'
+//! mean (by their edge midpoints) and their sag (that mean beyond their corners' mean).
+struct FacetOffsets {
+  double area = 0, facets = 0, sag = 0;
+  //! Adds triangle \p p; returns its area.
+  double add(const BaseSurface& base, const std::array<Vec3, 3>& p) {
+    const double a = 0.5 * OpenMesh::cross(p[1] - p[0], p[2] - p[0]).norm();
+    const double mean = mean_deviation(base, p[0], p[1], p[2]);
+    area += a;
+    facets += a * mean;
+    sag += a * (mean - corner_deviation(base, p));
+    return a;
+  }
+};
+
 //! The base surface is fitted to the surroundings' vertices, but their triangles are chords
 //! that lie inside a convex surface (outside a concave one) by up to an edge's sag: the surface
 //! the mesh shows is offset from the fit by its triangles' mean deviation. A patch on the fit
@@ -187,7 +202,7 @@ void match_facet_offset(Mesh& mesh, const BaseSurface& base,
   for (std::size_t i = 0; i < vertices.size(); ++i) ring[vertices[i].idx()] = ring_of[i] + 1;
   // The surroundings' triangles (they do not move): how far they lie from the base surface
   // beyond their corners (the sag; the corners' own deviation is the fit's residual).
-  double ring_area = 0, ring_sag = 0, ring_facets = 0;
+  FacetOffsets ring_offsets;
   double largest_fixed_deviation = 0;  // over the fixed vertices of the fit rings
   for (std::size_t i = 0; i < vertices.size(); ++i)
     if (ring_of[i] >= 1 && ring_of[i] <= fit_rings)
@@ -228,17 +243,12 @@ void match_facet_offset(Mesh& mesh, const BaseSurface& base,
       } else if (in_rings == 3 && (in_patch || outside_rim > 0)) {
         // A face of the surroundings. Without in_patch, one with every corner on the hole's
         // rim may be the patch's own (a triangle across the rim): left out.
-        const auto p = points_of(face);
-        const double area = 0.5 * OpenMesh::cross(p[1] - p[0], p[2] - p[0]).norm();
-        const double mean = mean_deviation(base, p[0], p[1], p[2]);
-        ring_area += area;
-        ring_facets += area * mean;
-        ring_sag += area * (mean - corner_deviation(base, p));
+        ring_offsets.add(base, points_of(face));
       }
     }
-  if (!(ring_area > 0)) return;
-  ring_sag /= ring_area;
-  ring_facets /= ring_area;
+  if (!(ring_offsets.area > 0)) return;
+  const double ring_sag = ring_offsets.sag / ring_offsets.area;
+  const double ring_facets = ring_offsets.facets / ring_offsets.area;
   // The patch's triangles lie their corners' deviation plus their own sag off the base
   // surface. The corners' deviation is the fairing's continuation of the fixed vertices'
   // deviations (real shape where the base surface departs from the surface: a sphere through
@@ -249,16 +259,11 @@ void match_facet_offset(Mesh& mesh, const BaseSurface& base,
   // inside the sphere), their slopes at the rim carry the patch out past all of them. Corners
   // deviating on average more than any fixed vertex does are such an overshoot, and then the
   // triangles are to lie as far off as the surroundings' triangles do on average.
-  double patch_area = 0, patch_facets = 0, patch_sag = 0, slope = 0;
-  for (const PatchFace& face : patch) {
-    const auto p = points_of(face);
-    const double area = 0.5 * OpenMesh::cross(p[1] - p[0], p[2] - p[0]).norm();
-    const double mean = mean_deviation(base, p[0], p[1], p[2]);
-    patch_area += area;
-    patch_facets += area * mean;
-    patch_sag += area * (mean - corner_deviation(base, p));
-    slope += area * face.bump;
-  }
+  FacetOffsets patch_offsets;
+  double slope = 0;
+  for (const PatchFace& face : patch) slope += patch_offsets.add(base, points_of(face)) * face.bump;
+  const double patch_area = patch_offsets.area, patch_facets = patch_offsets.facets,
+               patch_sag = patch_offsets.sag;
   if (!(patch_area > 0) || !(std::abs(slope) > 0)) return;
   const double patch_corners = (patch_facets - patch_sag) / patch_area;
   const double target = std::abs(patch_corners) > largest_fixed_deviation
@@ -271,13 +276,10 @@ void match_facet_offset(Mesh& mesh, const BaseSurface& base,
   double area_sum = patch_area, mean_sum = patch_facets;
   for (int step = 0; step < steps; ++step) {
     if (step > 0) {
-      area_sum = mean_sum = 0;
-      for (const PatchFace& face : patch) {
-        const auto p = points_of(face);
-        const double area = 0.5 * OpenMesh::cross(p[1] - p[0], p[2] - p[0]).norm();
-        area_sum += area;
-        mean_sum += area * mean_deviation(base, p[0], p[1], p[2]);
-      }
+      FacetOffsets moved;
+      for (const PatchFace& face : patch) moved.add(base, points_of(face));
+      area_sum = moved.area;
+      mean_sum = moved.facets;
     }
     const double scale = (target * area_sum - mean_sum) / slope;
     if (!std::isfinite(scale)) return;
