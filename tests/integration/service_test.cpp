@@ -32,15 +32,19 @@ std::string sample_mesh() {
   return read_binary_file(TOUCHMEND_SAMPLE_MESH);
 }
 
-//! A session with the bundled Spot sample (3 holes) loaded.
-std::string make_session(RepairClient& client, const std::string& name = "test") {
+//! A session with \p mesh (OFF; the bundled Spot sample, 3 holes, by default) loaded; empty if
+//! either step failed (the failure is reported).
+std::string make_session(RepairClient& client, const std::string& name = "test",
+                         const std::string& mesh = sample_mesh(),
+                         const std::string& file_name = "spot-holed.off") {
   v1::SessionInfo info;
-  EXPECT_TRUE(client.create_session(name, info).is_ok());
-  v1::LoadMeshResponse loaded;
-  const Status s =
-      client.upload_mesh(info.session_id(), sample_mesh(), v1::OFF, "spot-holed.off", loaded);
+  Status s = client.create_session(name, info);
   EXPECT_TRUE(s.is_ok()) << s.to_string();
-  return info.session_id();
+  if (!s.is_ok()) return {};
+  v1::LoadMeshResponse loaded;
+  s = client.upload_mesh(info.session_id(), mesh, v1::OFF, file_name, loaded);
+  EXPECT_TRUE(s.is_ok()) << s.to_string();
+  return s.is_ok() ? info.session_id() : std::string();
 }
 
 v1::FillHolesRequest fill_request(const std::string& session, std::uint32_t hole) {
@@ -935,16 +939,13 @@ TEST(Service, StitchesAcrossAGapAreUndoableEditsEveryoneSees) {
   ServerProcess server(dir.path());
   ASSERT_TRUE(server.start()) << server.log();
   RepairClient a(server.connect()), b(server.connect());
-  v1::SessionInfo info;
-  ASSERT_TRUE(a.create_session("gap", info).is_ok());
-  v1::LoadMeshResponse loaded;
-  ASSERT_TRUE(
-      a.upload_mesh(info.session_id(), two_plates_off(), v1::OFF, "plates.off", loaded).is_ok());
-  net::SessionReplica replica(b, info.session_id());
+  const std::string session = make_session(a, "gap", two_plates_off(), "plates.off");
+  ASSERT_FALSE(session.empty());
+  net::SessionReplica replica(b, session);
   ASSERT_TRUE(replica.start().is_ok());
   // Vertex ids: left plate y*5+x, right plate 25 + y*5+x.
   v1::StitchRequest stitch;
-  stitch.set_session_id(info.session_id());
+  stitch.set_session_id(session);
   stitch.set_a(4);   // left (4, 0)
   stitch.set_b(9);   // left (4, 1)
   stitch.set_t(25);  // right (0, 0)
@@ -953,7 +954,7 @@ TEST(Service, StitchesAcrossAGapAreUndoableEditsEveryoneSees) {
   EXPECT_EQ(edit.delta().added_face_ids_size(), 1);
   ASSERT_TRUE(replica.wait_for_version(edit.version(), 10s).is_ok());
   rpc::MeshDocument server_doc;
-  ASSERT_TRUE(a.download_document(info.session_id(), server_doc).is_ok());
+  ASSERT_TRUE(a.download_document(session, server_doc).is_ok());
   EXPECT_EQ(replica.document(), server_doc);
   // Refused stitches answer with the reason and change nothing.
   v1::StitchRequest interior = stitch;
@@ -968,7 +969,7 @@ TEST(Service, StitchesAcrossAGapAreUndoableEditsEveryoneSees) {
   EXPECT_EQ(a.stitch(unknown, refused).code, StatusCode::NotFound);
   // Undo takes the stitch away for everyone.
   v1::EditResponse undone;
-  ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
+  ASSERT_TRUE(b.undo(session, undone).is_ok());
   ASSERT_TRUE(replica.wait_for_version(undone.version(), 10s).is_ok());
   EXPECT_EQ(replica.document().alive_faces(), 64u);
 }
@@ -978,15 +979,12 @@ TEST(Service, GapsAreListedAndBridgedAsEditsEveryoneSees) {
   ServerProcess server(dir.path());
   ASSERT_TRUE(server.start()) << server.log();
   RepairClient a(server.connect()), b(server.connect());
-  v1::SessionInfo info;
-  ASSERT_TRUE(a.create_session("gaps", info).is_ok());
-  v1::LoadMeshResponse loaded;
-  ASSERT_TRUE(
-      a.upload_mesh(info.session_id(), two_plates_off(), v1::OFF, "plates.off", loaded).is_ok());
-  net::SessionReplica replica(b, info.session_id());
+  const std::string session = make_session(a, "gaps", two_plates_off(), "plates.off");
+  ASSERT_FALSE(session.empty());
+  net::SessionReplica replica(b, session);
   ASSERT_TRUE(replica.start().is_ok());
   v1::ListGapsRequest list;
-  list.set_session_id(info.session_id());
+  list.set_session_id(session);
   v1::ListGapsResponse gaps;
   ASSERT_TRUE(a.list_gaps(list, gaps).is_ok());
   ASSERT_EQ(gaps.gaps_size(), 1);
@@ -996,7 +994,7 @@ TEST(Service, GapsAreListedAndBridgedAsEditsEveryoneSees) {
   EXPECT_EQ(a.list_gaps(list, gaps).code, StatusCode::InvalidArgument);
   // Unknown gap id: refused, nothing changes.
   v1::BridgeGapsRequest bridge;
-  bridge.set_session_id(info.session_id());
+  bridge.set_session_id(session);
   bridge.mutable_ids()->add_ids(7);
   v1::EditResponse edit;
   EXPECT_EQ(a.bridge_gaps(bridge, edit).code, StatusCode::NotFound);
@@ -1006,16 +1004,16 @@ TEST(Service, GapsAreListedAndBridgedAsEditsEveryoneSees) {
   EXPECT_NE(edit.summary().find("bridged 1 of 1"), std::string::npos) << edit.summary();
   ASSERT_TRUE(replica.wait_for_version(edit.version(), 10s).is_ok());
   rpc::MeshDocument server_doc;
-  ASSERT_TRUE(a.download_document(info.session_id(), server_doc).is_ok());
+  ASSERT_TRUE(a.download_document(session, server_doc).is_ok());
   EXPECT_EQ(replica.document(), server_doc);
   v1::ListHolesResponse holes;
-  ASSERT_TRUE(a.list_holes(info.session_id(), holes).is_ok());
+  ASSERT_TRUE(a.list_holes(session, holes).is_ok());
   EXPECT_EQ(holes.holes_size(), 1);  // the outer boundary only
   // Undo, then Algorithm IX over the wire: a stitch at each end, the rest filled.
   v1::EditResponse undone;
-  ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
+  ASSERT_TRUE(b.undo(session, undone).is_ok());
   v1::BridgeGapsRequest ends;
-  ends.set_session_id(info.session_id());
+  ends.set_session_id(session);
   auto* first = ends.mutable_ends()->mutable_first();
   first->set_a(4);  // left (4, 0) - (4, 1), to right (0, 0)
   first->set_b(9);
@@ -1027,7 +1025,7 @@ TEST(Service, GapsAreListedAndBridgedAsEditsEveryoneSees) {
   v1::EditResponse semi;
   ASSERT_TRUE(a.bridge_gaps(ends, semi).is_ok());
   EXPECT_GE(semi.delta().added_face_ids_size(), 8);
-  ASSERT_TRUE(a.list_holes(info.session_id(), holes).is_ok());
+  ASSERT_TRUE(a.list_holes(session, holes).is_ok());
   EXPECT_EQ(holes.holes_size(), 1);
   second->set_t(999999);
   EXPECT_EQ(a.bridge_gaps(ends, semi).code, StatusCode::NotFound);
@@ -1044,13 +1042,11 @@ TEST(Service, SharpenAndSharpAutoFillRetainTheCreaseOverTheWire) {
   std::string off;
   geometry::serialize_mesh(geometry::build_mesh(read.soup).mesh, geometry::MeshFormat::Off, {},
                            off);
-  v1::SessionInfo info;
-  ASSERT_TRUE(a.create_session("sharp", info).is_ok());
-  v1::LoadMeshResponse loaded;
-  ASSERT_TRUE(a.upload_mesh(info.session_id(), off, v1::OFF, "fandisk.off", loaded).is_ok());
+  const std::string session = make_session(a, "sharp", off, "fandisk.off");
+  ASSERT_FALSE(session.empty());
   // Hole 1444 lies on the straight crease x = 4.828, z = 0.
   v1::SharpenRequest sharpen;
-  sharpen.set_session_id(info.session_id());
+  sharpen.set_session_id(session);
   sharpen.set_hole_id(1444);
   for (const double y : {15.2, 14.795, 14.203, 13.8}) {
     auto* p = sharpen.add_points();
@@ -1096,7 +1092,7 @@ TEST(Service, SharpenAndSharpAutoFillRetainTheCreaseOverTheWire) {
   EXPECT_EQ(a.sharpen(bad, edit).code, StatusCode::InvalidArgument);
   // The other holes with --sharp auto: split along their detected creases.
   v1::FillHolesRequest fill;
-  fill.set_session_id(info.session_id());
+  fill.set_session_id(session);
   fill.mutable_selection()->set_all(true);
   fill.mutable_options()->set_sharp(v1::SHARP_AUTO);
   ASSERT_TRUE(a.fill_holes(fill, edit).is_ok());
@@ -1114,18 +1110,14 @@ TEST(Service, SharpenRetainsACornerFromItsPickedCreases) {
   ServerProcess server(dir.path());
   ASSERT_TRUE(server.start()) << server.log();
   RepairClient a(server.connect());
-  v1::SessionInfo info;
-  ASSERT_TRUE(a.create_session("corner", info).is_ok());
-  v1::LoadMeshResponse loaded;
-  ASSERT_TRUE(a.upload_mesh(info.session_id(),
-                            to_off(cube_with_hole(8, geometry::Vec3(8, 8, 8), 2.5)), v1::OFF,
-                            "corner.off", loaded)
-                  .is_ok());
+  const std::string session = make_session(
+      a, "corner", to_off(cube_with_hole(8, geometry::Vec3(8, 8, 8), 2.5)), "corner.off");
+  ASSERT_FALSE(session.empty());
   v1::ListHolesResponse holes;
-  ASSERT_TRUE(a.list_holes(info.session_id(), holes).is_ok());
+  ASSERT_TRUE(a.list_holes(session, holes).is_ok());
   ASSERT_EQ(holes.holes_size(), 1);
   v1::SharpenRequest sharpen;
-  sharpen.set_session_id(info.session_id());
+  sharpen.set_session_id(session);
   sharpen.set_hole_id(holes.holes(0).id());
   for (const auto& p :
        {geometry::Vec3(8, 3.5, 8), geometry::Vec3(8, 5.6, 8), geometry::Vec3(3.5, 8, 8),
@@ -1156,7 +1148,7 @@ TEST(Service, SharpenRetainsACornerFromItsPickedCreases) {
     corner = corner || (p - geometry::Vec3(8, 8, 8)).norm() < 1e-9;
   }
   EXPECT_TRUE(corner);
-  ASSERT_TRUE(a.list_holes(info.session_id(), holes).is_ok());
+  ASSERT_TRUE(a.list_holes(session, holes).is_ok());
   EXPECT_EQ(holes.holes_size(), 0);
 }
 
@@ -1170,12 +1162,9 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   ServerProcess server(dir.path());
   ASSERT_TRUE(server.start()) << server.log();
   RepairClient a(server.connect()), b(server.connect());
-  v1::SessionInfo info;
-  ASSERT_TRUE(a.create_session("sharp edge", info).is_ok());
-  v1::LoadMeshResponse loaded;
-  ASSERT_TRUE(
-      a.upload_mesh(info.session_id(), cube_edge_hole_off(), v1::OFF, "cube.off", loaded).is_ok());
-  net::SessionReplica replica(b, info.session_id());
+  const std::string session = make_session(a, "sharp edge", cube_edge_hole_off(), "cube.off");
+  ASSERT_FALSE(session.empty());
+  net::SessionReplica replica(b, session);
   std::vector<v1::ToolPreview> previews;  // what the second client is told of the tool
   replica.on_tool_preview = [&](const v1::ToolPreview& t) { previews.push_back(t); };
   const auto wait_for_previews = [&](std::size_t count) {
@@ -1187,7 +1176,7 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   ASSERT_TRUE(replica.start().is_ok());
   // A faired fill without crease retaining rounds the edge off.
   v1::FillHolesRequest fill;
-  fill.set_session_id(info.session_id());
+  fill.set_session_id(session);
   fill.mutable_selection()->set_all(true);
   fill.mutable_options()->set_shape(v1::PATCH_SHAPE_FAIR);
   fill.mutable_options()->set_sharp(v1::SHARP_OFF);
@@ -1195,7 +1184,7 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   ASSERT_TRUE(a.fill_holes(fill, filled).is_ok());
 
   v1::SharpEdgeRequest request;
-  request.set_session_id(info.session_id());
+  request.set_session_id(session);
   v1::SharpEdgeResponse response;
   // Push before begin: refused.
   request.mutable_push()->set_step(0.1);
@@ -1225,7 +1214,7 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   EXPECT_FALSE(previews[0].principal().empty());
   {  // A client joining now is shown the open tool's preview at once.
     RepairClient c(server.connect());
-    net::SessionReplica late(c, info.session_id());
+    net::SessionReplica late(c, session);
     std::vector<v1::ToolPreview> seen;
     late.on_tool_preview = [&](const v1::ToolPreview& t) { seen.push_back(t); };
     ASSERT_TRUE(late.start().is_ok());
@@ -1272,7 +1261,7 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
     // three samples; the second one of a thousand steps: capped at 256 samples; then one
     // sample per push.
     const double motion = round == 0 ? 0.9 : (round == 1 ? 300.0 : 0.1);
-    const v1::SharpEdgeRequest push = sharp_edge_push(info.session_id(), *target, motion, 0.3);
+    const v1::SharpEdgeRequest push = sharp_edge_push(session, *target, motion, 0.3);
     v1::SharpEdgeResponse pushed;
     const Status pushed_status = a.sharp_edge(push, pushed);
     ASSERT_TRUE(pushed_status.is_ok()) << "round " << round << ": " << pushed_status.message;
@@ -1296,7 +1285,7 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   EXPECT_FALSE(previews[4].active());
   EXPECT_EQ(previews.size(), 5u);
   rpc::MeshDocument server_doc;
-  ASSERT_TRUE(a.download_document(info.session_id(), server_doc).is_ok());
+  ASSERT_TRUE(a.download_document(session, server_doc).is_ok());
   EXPECT_EQ(replica.document(), server_doc);
   // The result is closed and clean, and the edge is back: every curtain vertex is on it.
   geometry::MeshSoup soup;
@@ -1320,8 +1309,8 @@ TEST(Service, InteractiveSharpEdgeRestoresACubeEdgeStepByStep) {
   // The tool ended with the finish; every step is undoable.
   EXPECT_EQ(a.sharp_edge(request, response).code, StatusCode::FailedPrecondition);
   v1::EditResponse undone;
-  ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
-  ASSERT_TRUE(b.undo(info.session_id(), undone).is_ok());
+  ASSERT_TRUE(b.undo(session, undone).is_ok());
+  ASSERT_TRUE(b.undo(session, undone).is_ok());
 }
 
 // The interactive tool takes the curve's end directions as the batch sharpen does: P1 picked
@@ -1332,13 +1321,10 @@ TEST(Service, InteractiveSharpEdgeCurveLeavesAlongTheCreaseAPickIsBeside) {
   ServerProcess server(dir.path());
   ASSERT_TRUE(server.start()) << server.log();
   RepairClient a(server.connect());
-  v1::SessionInfo info;
-  ASSERT_TRUE(a.create_session("tangents", info).is_ok());
-  v1::LoadMeshResponse loaded;
-  ASSERT_TRUE(
-      a.upload_mesh(info.session_id(), cube_edge_hole_off(), v1::OFF, "cube.off", loaded).is_ok());
+  const std::string session = make_session(a, "tangents", cube_edge_hole_off(), "cube.off");
+  ASSERT_FALSE(session.empty());
   v1::FillHolesRequest fill;
-  fill.set_session_id(info.session_id());
+  fill.set_session_id(session);
   fill.mutable_selection()->set_all(true);
   fill.mutable_options()->set_sharp(v1::SHARP_OFF);
   v1::EditResponse filled;
@@ -1346,7 +1332,7 @@ TEST(Service, InteractiveSharpEdgeCurveLeavesAlongTheCreaseAPickIsBeside) {
   // The hole's rim meets the edge at y = 2 and y = 6.
   const auto begin = [&](v1::PickTangents tangents, v1::SharpEdgeResponse& response) {
     v1::SharpEdgeRequest request;
-    request.set_session_id(info.session_id());
+    request.set_session_id(session);
     for (const auto& [y, z] : {std::pair{0.5, 7.6}, {2.0, 8.0}, {6.0, 8.0}, {7.5, 8.0}}) {
       auto* p = request.mutable_begin()->add_points();
       p->set_x(8);
