@@ -610,18 +610,17 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
   for (const FaceHandle f : r.patch)
     for (const VertexHandle v : mesh_.fv_range(f))
       if (is_new(v) && seen.insert(v.idx()).second) vertices.push_back(v);
-  summary = options.method == geometry::SharpenMethod::PushDown
-                ? fmt::format("sharp edge retained on hole {} (push-down: {}; {})",
-                              request.hole_id(), geometry::push_down_summary(r, options.finish),
-                              geometry::tangents_summary(r.crease_tangent_start,
-                                                         r.crease_tangent_end, options.tangents))
-            : one_curve
-                ? fmt::format("sharp edge retained on hole {} (split along the curve; {})",
-                              request.hole_id(),
-                              geometry::tangents_summary(r.crease_tangent_start,
-                                                         r.crease_tangent_end, options.tangents))
-                : fmt::format("sharp edges retained on hole {} (split along {})", request.hole_id(),
-                              geometry::creases_summary(r, picked, options.tangents));
+  const std::string tangents =
+      geometry::tangents_summary(r.crease_tangent_start, r.crease_tangent_end, options.tangents);
+  summary =
+      options.method == geometry::SharpenMethod::PushDown
+          ? fmt::format("sharp edge retained on hole {} (push-down: {}; {})", request.hole_id(),
+                        geometry::push_down_summary(r, options.finish), tangents)
+      : one_curve
+          ? fmt::format("sharp edge retained on hole {} (split along the curve; {})",
+                        request.hole_id(), tangents)
+          : fmt::format("sharp edges retained on hole {} (split along {})", request.hole_id(),
+                        geometry::creases_summary(r, picked, options.tangents));
   outcome.delta = edit_delta(document, std::move(vertices), r.patch, first_free);
   return outcome;
 }
