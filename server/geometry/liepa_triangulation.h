@@ -21,6 +21,16 @@ struct LiepaTriangulationOptions {
   //! Triangles (i, m, k), i < m < k, that may not be used (ours: those found to intersect the
   //! mesh on an earlier solve; see forbidden_key).
   const std::unordered_set<std::uint64_t>* forbidden = nullptr;
+  //! Search under a rising bound on the largest dihedral angle (ours): a pass weighs only the
+  //! candidate triangles that bend by at most the bound, which starts at a lower bound of the
+  //! optimum's largest bend and rises until a pass finds a triangulation. That one is the
+  //! exhaustive search's: the optimum bends no more than it, so none of the optimum's
+  //! triangles (nor a better one) was left out. Off: every candidate is weighed (the reference
+  //! the tests compare against).
+  bool rising_angle_bound = true;
+  //! The rising bound is used on loops of at least this many vertices: on smaller ones a
+  //! failed pass costs about what the bound saves (README, "Benchmarks").
+  std::size_t rising_angle_bound_min_vertices = 64;
 };
 
 //! Key of triangle (i, m, k), i < m < k, of an n-vertex loop in
@@ -81,6 +91,15 @@ class MinDihedralTriangulator {
     return static_cast<std::size_t>(i) * static_cast<std::size_t>(n_) + static_cast<std::size_t>(k);
   }
   bool is_forbidden(int i, int m, int k) const;
+  //! The dynamic programme over the intervals still to solve, admitting only candidates that
+  //! bend by at most angle_bound_.
+  void solve_intervals();
+  //! A lower bound of the optimum's largest dihedral deviation: every boundary edge's triangle
+  //! bends against the mesh triangle across it at least as little as its best third corner.
+  double lowest_possible_angle() const;
+  //! Interval (i, k) has a triangulation (under the bound): kept as bits so that the candidate
+  //! loop visits only splits m whose two sides both have one.
+  void set_solvable(int i, int k, bool solvable);
   //! Every interval (i, k) with i <= first and k >= last must be solved again.
   void mark_dirty(int first, int last);
 
@@ -91,6 +110,8 @@ class MinDihedralTriangulator {
   std::vector<char> blocked_;          //!< n x n: pairs joined by a mesh edge outside the hole
   double min_area_ = 0;
   const std::unordered_set<std::uint64_t>* external_forbidden_ = nullptr;
+  bool rising_angle_bound_ = true;
+  double angle_bound_ = 0;  //!< candidates bending more than this are not weighed
   std::unordered_set<std::uint64_t> forbidden_;
   //! Per i: the smallest k of a triangle forbidden since the last solve whose first corner is
   //! >= i (suffix minimum): interval (i, k) must be solved again iff k >= dirty_from_[i].
@@ -100,6 +121,9 @@ class MinDihedralTriangulator {
   std::vector<int> lambda_;
   //! Normal of the triangle chosen for interval (i, k): the neighbour across edge (i, k).
   std::vector<Vec3> chosen_normal_;
+  std::size_t words_ = 0;  //!< 64-bit words per row of the bit sets below
+  //! Row i, bit k: interval (i, k) is solvable; row k, bit i of the second: the same, by column.
+  std::vector<std::uint64_t> solvable_from_, solvable_to_;
   std::size_t intervals_solved_ = 0;
 };
 

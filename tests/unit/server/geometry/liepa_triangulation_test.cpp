@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -146,6 +147,125 @@ TEST(MinimumDihedralTriangulation, IncrementalSolvesMatchSolvingFromScratch) {
     forbidden.insert(forbidden_key(pick[0], pick[1], pick[2], n));
   }
   EXPECT_LT(solver.intervals_solved(), 6 * all_intervals);
+}
+
+//! A loop on a wavy surface with a fold (a crease across it, like a hole on a CAD part's edge)
+//! and a little deterministic jitter, so the largest bend is neither at the boundary nor tied.
+void folded_loop(int n, std::vector<Vec3>& loop, std::vector<Vec3>& opposite) {
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * std::numbers::pi * i / n;
+    const double x = std::cos(a), y = std::sin(a);
+    const double jitter = 0.02 * std::sin(7.3 * i) * std::cos(3.1 * i);
+    loop.emplace_back(x + jitter, y, 0.6 * std::abs(x) + 0.1 * std::sin(4 * a) + jitter);
+  }
+  for (int i = 0; i < n; ++i) {
+    const Vec3 mid = 0.5 * (loop[i] + loop[(i + 1) % n]);
+    opposite.push_back(Vec3(1.4 * mid[0], 1.4 * mid[1], mid[2] - 0.05));
+  }
+}
+
+TEST(MinimumDihedralTriangulation, RisingAngleBoundFindsTheExhaustiveOptimum) {
+  // The rising bound (forced on small loops here) must return exactly the triangulation the
+  // exhaustive search does: on ties (the planar loop), on a saddle, on bumpy and folded loops
+  // of several sizes, and with blocked chords.
+  LiepaTriangulationOptions exhaustive, rising;
+  exhaustive.rising_angle_bound = false;
+  rising.rising_angle_bound_min_vertices = 3;
+  const auto compare = [&](const std::vector<Vec3>& loop, const std::vector<Vec3>& opposite,
+                           const std::vector<std::pair<int, int>>& blocked, const char* what) {
+    const auto reference = triangulate_min_dihedral(loop, opposite, blocked, exhaustive);
+    const auto bounded = triangulate_min_dihedral(loop, opposite, blocked, rising);
+    ASSERT_TRUE(reference.ok) << what << ": " << reference.failure;
+    ASSERT_TRUE(bounded.ok) << what << ": " << bounded.failure;
+    EXPECT_EQ(bounded.triangles, reference.triangles) << what;
+  };
+  for (const int n : {5, 12, 40}) {
+    std::vector<Vec3> loop, opposite;
+    planar_loop(n, loop, opposite);
+    compare(loop, opposite, {}, "planar");
+  }
+  for (const int n : {6, 24, 70}) {
+    std::vector<Vec3> loop, opposite;
+    bumpy_loop(n, loop, opposite);
+    compare(loop, opposite, {}, "bumpy");
+    std::vector<Vec3> folded, folded_opposite;
+    folded_loop(n, folded, folded_opposite);
+    compare(folded, folded_opposite, {}, "folded");
+    compare(folded, folded_opposite, {{0, n / 2}, {1, n / 3}, {2, n - 3}}, "folded, blocked");
+  }
+  // Neighbours folded back over the hole: the best triangulation bends by more than 90°.
+  std::vector<Vec3> loop, opposite;
+  planar_loop(16, loop, opposite);
+  for (auto& o : opposite) o = Vec3(0.3 * o[0], 0.3 * o[1], 0.4);
+  compare(loop, opposite, {}, "folded back");
+}
+
+//! A loop with random heights and neighbours in random directions (seeded: the same every
+//! run), so that the largest bend can be anywhere, also at the edge that closes the loop.
+void random_loop(int n, std::mt19937& random, std::vector<Vec3>& loop,
+                 std::vector<Vec3>& opposite) {
+  const auto uniform = [&random] {  // in [-1, 1], the same on every standard library
+    return static_cast<double>(random()) / static_cast<double>(std::mt19937::max()) * 2 - 1;
+  };
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * std::numbers::pi * (i + 0.3 * uniform()) / n;
+    loop.emplace_back(std::cos(a), std::sin(a), 0.4 * uniform());
+  }
+  for (int i = 0; i < n; ++i) {
+    const Vec3 mid = 0.5 * (loop[i] + loop[(i + 1) % n]);
+    opposite.push_back(Vec3(1.3 * mid[0], 1.3 * mid[1], mid[2]) +
+                       0.3 * Vec3(uniform(), uniform(), uniform()));
+  }
+}
+
+TEST(MinimumDihedralTriangulation, RisingAngleBoundMatchesOnRandomLoops) {
+  LiepaTriangulationOptions exhaustive, rising;
+  exhaustive.rising_angle_bound = false;
+  rising.rising_angle_bound_min_vertices = 3;
+  std::mt19937 random(20261124);
+  for (int trial = 0; trial < 150; ++trial) {
+    std::vector<Vec3> loop, opposite;
+    random_loop(4 + trial % 40, random, loop, opposite);
+    const auto reference = triangulate_min_dihedral(loop, opposite, {}, exhaustive);
+    const auto bounded = triangulate_min_dihedral(loop, opposite, {}, rising);
+    ASSERT_EQ(bounded.ok, reference.ok) << "trial " << trial;
+    EXPECT_EQ(bounded.triangles, reference.triangles) << "trial " << trial;
+  }
+}
+
+TEST(MinimumDihedralTriangulation, RisingAngleBoundSurvivesForbiddenRounds) {
+  // Forbidding every triangle of each solution forces the later solves over the bound the
+  // earlier ones ended with; every solve of the kept tables must still equal the exhaustive
+  // search from scratch.
+  std::mt19937 random(7);
+  LiepaTriangulationOptions rising;
+  rising.rising_angle_bound_min_vertices = 3;
+  for (int trial = 0; trial < 30; ++trial) {
+    std::vector<Vec3> loop, opposite;
+    const int n = 8 + trial;
+    if (trial % 2 == 0) {
+      random_loop(n, random, loop, opposite);
+    } else {
+      folded_loop(n, loop, opposite);
+    }
+    MinDihedralTriangulator solver(loop, opposite, {}, rising);
+    std::unordered_set<std::uint64_t> forbidden;
+    LiepaTriangulationOptions scratch;
+    scratch.forbidden = &forbidden;
+    scratch.rising_angle_bound = false;
+    for (int round = 0; round < 4; ++round) {
+      const auto kept = solver.solve();
+      const auto fresh = triangulate_min_dihedral(loop, opposite, {}, scratch);
+      ASSERT_EQ(kept.ok, fresh.ok) << "trial " << trial << " round " << round;
+      if (!kept.ok) break;
+      EXPECT_EQ(kept.triangles, fresh.triangles) << "trial " << trial << " round " << round;
+      for (auto t : kept.triangles) {
+        solver.forbid(t);
+        std::sort(t.begin(), t.end());
+        forbidden.insert(forbidden_key(t[0], t[1], t[2], n));
+      }
+    }
+  }
 }
 
 TEST(MinimumDihedralTriangulation, ForbiddenChordIsNoTrianglesEdge) {
