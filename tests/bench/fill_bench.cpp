@@ -3,6 +3,7 @@
 // prints per hole: time, faces added, distance to the ground truth, triangle quality.
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -21,6 +22,7 @@
 
 #include "server/geometry/hole_filling.h"
 #include "server/geometry/holes.h"
+#include "server/geometry/liepa_triangulation.h"
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_intersections.h"
 #include "server/geometry/metrics.h"
@@ -71,6 +73,53 @@ std::string spread_ms(const std::vector<double>& v) {
   return fmt::format("{:.3f}–{:.3f}", 1e3 * *lo, 1e3 * *hi);
 }
 
+//! --triangulation: the minimum-dihedral triangulation (the 3D method's O(n^3) search) of
+//! every hole loop, exhaustive against the rising bound on the worst bend (forced on every
+//! loop size here, to show where it pays), timed alone, and whether both give the same
+//! triangles.
+void bench_triangulation(const std::vector<Workload>& workloads, int repeat) {
+  fmt::print(
+      "| case | hole id | bnd | exhaustive ms | rising bound ms | speed-up | same triangles |\n"
+      "|---|---|---|---|---|---|---|\n");
+  geo::LiepaTriangulationOptions exhaustive, rising;
+  exhaustive.rising_angle_bound = false;
+  rising.rising_angle_bound_min_vertices = 0;
+  for (const Workload& w : workloads) {
+    const geo::BuildResult built = geo::build_mesh(w.holed);
+    const geo::Mesh& mesh = built.mesh;
+    for (const geo::Hole& hole : geo::find_holes(mesh).holes) {
+      const std::size_t n = hole.loop.size();
+      if (n > exhaustive.max_vertices) {
+        fmt::print("| {} | {} | {} | over the {}-vertex limit | | | |\n", w.name, hole.id, n,
+                   exhaustive.max_vertices);
+        continue;
+      }
+      std::vector<geo::Vec3> loop, opposite;
+      for (std::size_t i = 0; i < n; ++i) {
+        loop.push_back(mesh.point(hole.loop[i]));
+        const geo::HalfedgeHandle across = mesh.opposite_halfedge_handle(hole.halfedges[i]);
+        opposite.push_back(mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(across))));
+      }
+      const auto time = [&](const geo::LiepaTriangulationOptions& options,
+                            geo::LiepaTriangulation& result) {
+        std::vector<double> seconds;
+        for (int r = 0; r < repeat; ++r) {
+          const auto start = std::chrono::steady_clock::now();
+          result = geo::triangulate_min_dihedral(loop, opposite, {}, options);
+          seconds.push_back(
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        }
+        return median(seconds);
+      };
+      geo::LiepaTriangulation full, bounded;
+      const double full_s = time(exhaustive, full), bounded_s = time(rising, bounded);
+      fmt::print("| {} | {} | {} | {:.3f} | {:.3f} | {:.1f}x | {} |\n", w.name, hole.id, n,
+                 1e3 * full_s, 1e3 * bounded_s, full_s / bounded_s,
+                 full.ok && bounded.ok && full.triangles == bounded.triangles ? "yes" : "NO");
+    }
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -112,6 +161,10 @@ int main(int argc, char** argv) {
   app.add_option("--method", method,
                  "Force a touchmend method (planar, piecewise, dp); default automatic")
       ->check(CLI::IsMember({"planar", "piecewise", "dp"}));
+  bool triangulation = false;
+  app.add_flag("--triangulation", triangulation,
+               "Instead of filling: time the minimum-dihedral triangulation of every hole loop, "
+               "exhaustive against the rising bound (forced on every size), and compare them");
   CLI11_PARSE(app, argc, argv);
 
   geo::FillOptions options;
@@ -172,6 +225,10 @@ int main(int argc, char** argv) {
     }
   }
 
+  if (triangulation) {
+    bench_triangulation(workloads, repeat);
+    return 0;
+  }
   fmt::print(
       "| case | hole | bnd | touchmend ms | tm ms min–max | CGAL fair ms | ratio | CGAL tri ms | "
       "tm faces | CGAL "
