@@ -94,8 +94,9 @@ class MinDihedralTriangulator {
   //! The dynamic programme over the intervals still to solve, admitting only candidates that
   //! bend by at most angle_bound_.
   void solve_intervals();
-  //! A lower bound of the optimum's largest dihedral deviation: every boundary edge's triangle
-  //! bends against the mesh triangle across it at least as little as its best third corner.
+  //! A lower bound of the optimum's largest dihedral deviation: the triangle on each boundary
+  //! edge bends against the mesh triangle across that edge at least as much as the triangle
+  //! with the best third corner would, so the largest of those minima is a bound.
   double lowest_possible_angle() const;
   //! Interval (i, k) has a triangulation (under the bound): kept as bits so that the candidate
   //! loop visits only splits m whose two sides both have one.
