@@ -20,6 +20,10 @@ namespace touchmend::geometry {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
+//! The share of the tangent's fit length over which a crease's curvature is fitted (at least
+//! three edges): couplingdown_sharp #1's arcs measure 0.68-0.9 of their curvature so, 0.29-0.68
+//! over the whole length.
+constexpr double kCurvatureFitShare = 0.3;
 
 double dihedral_deg(FaceNormals& normals, HalfedgeHandle h) {
   const Mesh& mesh = normals.mesh();
@@ -85,16 +89,23 @@ std::vector<Vec3> trace_crease(FaceNormals& normals, HalfedgeHandle first, doubl
   return points;
 }
 
-//! Tangent at points[0] pointing along the polyline: least-squares fit of
-//! p(s) = p0 + a s + b s² over the points within \p fit_length of arc length.
-Vec3 fitted_tangent(const std::vector<Vec3>& points, double fit_length) {
+struct CreaseFit {
+  Vec3 tangent{0, 0, 0};        //!< unit, pointing along the polyline
+  Vec3 curvature{0, 0, 0};      //!< κ·N (zero when the fit had too few points)
+  std::size_t points_used = 0;  //!< polyline points after the first that the fit used
+};
+
+//! Tangent and curvature at points[0]: least-squares fit of p(s) = p0 + a s + b s² over the
+//! points within \p fit_length of arc length (a is the tangent, 2b the second derivative).
+CreaseFit fit_crease(const std::vector<Vec3>& points, double fit_length,
+                     std::size_t min_points = 1) {
   double s = 0;
   Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
   Eigen::Matrix<double, 2, 3> rhs = Eigen::Matrix<double, 2, 3>::Zero();
   std::size_t used = 0;
   for (std::size_t i = 1; i < points.size(); ++i) {
     s += (points[i] - points[i - 1]).norm();
-    if (s > fit_length && used >= 1) break;
+    if (s > fit_length && used >= min_points) break;
     const Vec3 d = points[i] - points[0];
     normal(0, 0) += s * s;
     normal(0, 1) += s * s * s;
@@ -105,15 +116,28 @@ Vec3 fitted_tangent(const std::vector<Vec3>& points, double fit_length) {
     }
     ++used;
   }
-  Vec3 tangent(0, 0, 0);
+  CreaseFit fit;
+  fit.points_used = used;
+  Vec3 second(0, 0, 0);
   if (used >= 2) {
     normal(1, 0) = normal(0, 1);
     const Eigen::Matrix<double, 2, 3> ab = normal.ldlt().solve(rhs);
-    tangent = Vec3(ab(0, 0), ab(0, 1), ab(0, 2));
+    fit.tangent = Vec3(ab(0, 0), ab(0, 1), ab(0, 2));
+    second = 2.0 * Vec3(ab(1, 0), ab(1, 1), ab(1, 2));
   }
-  if (!(tangent.norm() > 0) || !std::isfinite(tangent.norm()))
-    tangent = points.size() > 1 ? points[1] - points[0] : Vec3(0, 0, 0);
-  return tangent.normalize_cond();
+  const double speed = fit.tangent.norm();
+  if (!(speed > 0) || !std::isfinite(speed) || !std::isfinite(second.norm())) {
+    fit.tangent = points.size() > 1 ? points[1] - points[0] : Vec3(0, 0, 0);
+    return {fit.tangent.normalize_cond(), Vec3(0, 0, 0), used};
+  }
+  fit.tangent /= speed;
+  // The part of the acceleration across the tangent, per unit arc length squared.
+  fit.curvature = (second - OpenMesh::dot(second, fit.tangent) * fit.tangent) / (speed * speed);
+  return fit;
+}
+
+Vec3 fitted_tangent(const std::vector<Vec3>& points, double fit_length) {
+  return fit_crease(points, fit_length).tangent;
 }
 
 //! The angle at which direction \p d leaves the boundary vertex \p b, counter-clockwise from
@@ -167,6 +191,77 @@ bool interleaved(std::size_t a, std::size_t b, std::size_t c, std::size_t d) {
 
 double crease_fit_length(double perimeter, double mean_edge_length, double fit_length) {
   return std::max(fit_length * perimeter / std::numbers::pi, 2.5 * mean_edge_length);
+}
+
+Vec3 CreaseArc::at(double t) const {
+  const double phi = t * angle;
+  return centre + std::cos(phi) * (start - centre) + std::sin(phi) * radius * start_direction;
+}
+
+std::optional<CreaseArc> crease_arc_between(const CreaseCrossing& a, const CreaseCrossing& b,
+                                            double min_turn_deg, double max_angle_deg,
+                                            double curvature_factor, double* score) {
+  const Vec3 chord = b.position - a.position;
+  const double length = chord.norm();
+  if (!(length > 0) || !(curvature_factor >= 1)) return std::nullopt;
+  const Vec3 along = chord / length;
+  // A circle leaves a at angle θ to the chord and arrives at b at θ on the other side: the
+  // arrival is the departure mirrored about the chord, turned by 2θ. Both ends' measured angles
+  // and the sides they bend to are averaged, so neither end's tangent is trusted over the other.
+  const Vec3 depart = a.inward;
+  const Vec3 arrive = -b.inward;
+  const Vec3 mirrored = 2.0 * OpenMesh::dot(depart, along) * along - depart;
+  const double mismatch = angle_between(mirrored, arrive);
+  const Vec3 side = (depart - OpenMesh::dot(depart, along) * along) -
+                    (arrive - OpenMesh::dot(arrive, along) * along);
+  if (!(side.norm() > 1e-9)) return std::nullopt;
+  const Vec3 up = Vec3(side).normalize();
+  double theta = 0.5 * (angle_between(depart, along) + angle_between(arrive, along));
+  // The tangents fix the plane and the way round; the circle itself is fitted to the creases'
+  // points by the rim (a tangent fitted over a curved crease is biased towards its chord). In
+  // the plane (along, up) with a at the origin, the centre is (L/2, -h): each point q gives
+  // |q - M|² - L²/4 = 2h (q - M)·(-up), solved for h by least squares.
+  {
+    const Vec3 middle = 0.5 * (a.position + b.position);
+    double ab = 0, bb = 0;
+    for (const auto* crossing : {&a, &b})
+      for (std::size_t i = 1; i < crossing->near_rim.size(); ++i) {
+        const Vec3 q = crossing->near_rim[i] - middle;
+        const Vec3 in_plane = OpenMesh::dot(q, along) * along + OpenMesh::dot(q, up) * up;
+        const double lhs = in_plane.sqrnorm() - 0.25 * length * length;
+        const double coefficient = -2.0 * OpenMesh::dot(q, up);
+        ab += lhs * coefficient;
+        bb += coefficient * coefficient;
+      }
+    // At least a point off the chord's line; otherwise the tangents' estimate stands.
+    if (bb > 1e-12 * length * length) {
+      const double h = ab / bb;
+      const double fitted = std::atan2(0.5 * length, h);
+      // Refined only within the tangents' agreement: the way round stays the tangents'.
+      if (std::abs(fitted - theta) <= max_angle_deg * kDeg) theta = fitted;
+    }
+  }
+  // Near a full turn the circle's size is ill-determined by the two ends (sin θ -> 0).
+  if (2 * theta < min_turn_deg * kDeg || theta > 165 * kDeg || mismatch > max_angle_deg * kDeg)
+    return std::nullopt;
+  CreaseArc arc;
+  arc.radius = length / (2 * std::sin(theta));
+  arc.start = a.position;
+  arc.start_direction = std::cos(theta) * along + std::sin(theta) * up;
+  const Vec3 to_centre = std::sin(theta) * along - std::cos(theta) * up;
+  arc.centre = a.position + arc.radius * to_centre;
+  arc.angle = 2 * theta;
+  // Each crease must bend like the arc: by its curvature, towards its centre.
+  const double kappa = 1.0 / arc.radius;
+  for (const auto& [crossing, normal] :
+       {std::pair{&a, to_centre}, std::pair{&b, Vec3(arc.centre - b.position).normalize()}}) {
+    const Vec3& k = crossing->curvature;
+    if (!(k.norm() * curvature_factor >= kappa && k.norm() <= curvature_factor * kappa) ||
+        !(OpenMesh::dot(k, normal) > 0.5 * k.norm()))
+      return std::nullopt;
+  }
+  if (score) *score = mismatch;
+  return arc;
 }
 
 std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
@@ -255,9 +350,9 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       const VertexHandle w = mesh.to_vertex_handle(h);
       if (w == prev || w == next || !is_sharp(normals, h, weak_angle)) continue;
       const std::vector<Vec3> polyline = trace_crease(normals, h, weak_angle, 4.0 * fit_length);
-      const Vec3 outward = fitted_tangent(polyline, fit_length);
-      if (!(outward.norm() > 0)) continue;
-      const Vec3 inward = -outward;
+      const CreaseFit fit = fit_crease(polyline, fit_length);
+      if (!(fit.tangent.norm() > 0)) continue;
+      const Vec3 inward = -fit.tangent;
       const auto [phi, corner] = wedge_angles(vertex_normal(normals, b), mesh.point(prev),
                                               mesh.point(b), mesh.point(next), inward);
       // Strictly inside the hole's corner at b (a crease along the boundary is not a crossing).
@@ -267,6 +362,12 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       c.vertex = b;
       c.position = mesh.point(b);
       c.inward = inward;
+      // The bend is measured nearer the rim than the direction: over the tangent's length a
+      // bore's rim, a few edges long, is averaged with the straight crease it runs into.
+      const CreaseFit bend = fit_crease(polyline, kCurvatureFitShare * fit_length, 3);
+      c.curvature = bend.curvature;
+      c.near_rim.assign(polyline.begin(),
+                        polyline.begin() + static_cast<std::ptrdiff_t>(bend.points_used + 1));
       c.far_point = c.position - fit_length * inward;
       c.on_crease = polyline.back();
       double walked = 0;
@@ -300,6 +401,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   struct Candidate {
     double score;
     std::size_t a, b;
+    std::optional<CreaseArc> arc;  //!< set when the pair is joined by an arc, not a line
   };
   std::vector<Candidate> candidates;
   for (std::size_t a = 0; a < m; ++a)
@@ -310,21 +412,31 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       if (ca.loop_index == cb.loop_index || !(chord.norm() > 0) || ca.convex != cb.convex ||
           !(strong(a) || strong(b)))
         continue;
-      candidates.push_back(
-          {std::max(angle_between(ca.inward, chord), angle_between(cb.inward, -chord)), a, b});
+      Candidate c{std::max(angle_between(ca.inward, chord), angle_between(cb.inward, -chord)), a, b,
+                  std::nullopt};
+      // A curved crease: the arc both creases bend along, if it agrees better than the chord.
+      double arc_score = 0;
+      if (auto arc =
+              crease_arc_between(ca, cb, options.min_arc_turn_deg, options.loose_pair_angle_deg,
+                                 options.arc_curvature_factor, &arc_score);
+          arc && arc_score < c.score) {
+        c.score = arc_score;
+        c.arc = arc;
+      }
+      candidates.push_back(c);
     }
   std::sort(candidates.begin(), candidates.end(),
             [](const Candidate& x, const Candidate& y) { return x.score < y.score; });
   std::set<std::size_t> used_vertices;
-  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  std::vector<Candidate> pairs;
   auto try_pair = [&](const Candidate& c, double limit) {
     const std::size_t la = found[c.a].loop_index, lb = found[c.b].loop_index;
     if (used_vertices.count(la) || used_vertices.count(lb) || c.score > limit) return;
-    for (const auto& [x, y] : pairs)
-      if (interleaved(la, lb, found[x].loop_index, found[y].loop_index)) return;
+    for (const Candidate& p : pairs)
+      if (interleaved(la, lb, found[p.a].loop_index, found[p.b].loop_index)) return;
     used_vertices.insert(la);
     used_vertices.insert(lb);
-    pairs.emplace_back(c.a, c.b);
+    pairs.push_back(c);
   };
   // Strong crossings no pair took, the best (sharpest) per boundary vertex.
   const auto leftovers = [&] {
@@ -354,24 +466,25 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     if (added) plan.crossings.push_back(found[i]);
     return it->second;
   };
-  for (auto& [a, b] : pairs) {
-    a = keep(a);
-    b = keep(b);
+  for (Candidate& p : pairs) {
+    p.a = keep(p.a);
+    p.b = keep(p.b);
   }
   for (std::size_t& i : left) i = keep(i);
   const std::size_t reported = plan.crossings.size();
 
   const double tolerance = 1e-9 * std::max(diameter, 1e-300);
-  for (const auto& [a, b] : pairs) {
-    const CreaseCrossing& ca = plan.crossings[a];
-    const CreaseCrossing& cb = plan.crossings[b];
+  for (const Candidate& p : pairs) {
+    const CreaseCrossing& ca = plan.crossings[p.a];
+    const CreaseCrossing& cb = plan.crossings[p.b];
     CreaseCurve curve;
-    curve.from = a;
-    curve.to = b;
+    curve.from = p.a;
+    curve.to = p.b;
     curve.points = {ca.far_point, ca.position, cb.position, cb.far_point};
     const HermiteCurveResult r = make_hermite_curve(curve.points, options.hermite, tolerance);
     if (!r.curve) continue;
     curve.curve = *r.curve;
+    curve.arc = p.arc;
     plan.curves.push_back(curve);
   }
 
@@ -398,8 +511,18 @@ std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& pla
     CurveSplitInput::Curve curve;
     curve.from = static_cast<int>(plan.crossings[c.from].loop_index);
     curve.to = c.to ? static_cast<int>(plan.crossings[*c.to].loop_index) : -1;
-    const std::vector<CurveSample> samples = sample_by_arc_length(c.curve, segment_length);
-    for (std::size_t i = 1; i + 1 < samples.size(); ++i) curve.interior.push_back(samples[i].point);
+    if (c.arc) {
+      // Capped so a degenerate spacing cannot ask for an absurd count (the triangulation's own
+      // size limit refuses far fewer).
+      const std::size_t segments = static_cast<std::size_t>(
+          std::clamp(std::ceil(c.arc->length() / std::max(segment_length, 1e-300)), 1.0, 65536.0));
+      for (std::size_t i = 1; i < segments; ++i)
+        curve.interior.push_back(c.arc->at(static_cast<double>(i) / segments));
+    } else {
+      const std::vector<CurveSample> samples = sample_by_arc_length(c.curve, segment_length);
+      for (std::size_t i = 1; i + 1 < samples.size(); ++i)
+        curve.interior.push_back(samples[i].point);
+    }
     out.push_back(std::move(curve));
   }
   return out;

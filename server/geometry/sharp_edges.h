@@ -17,6 +17,13 @@
 //! over meet at the least-squares intersection of their tangent lines (a corner, e.g. a cube
 //! corner cut by the hole); two left over are joined if their tangents are at least
 //! `loose_pair_angle_deg` consistent. Everything not joined is reported.
+//!
+//! Curved creases: the fit also gives each crease's curvature at the rim. Two crossings whose
+//! tangents turn by more than `min_arc_turn_deg` between them are joined by a circular arc when
+//! both creases bend as that arc does (curvature within `arc_curvature_factor`, towards its
+//! centre): the rim of a bore or a boss that the hole cuts across, which may turn by far more
+//! than the half turn a cubic Hermite curve can follow (couplingdown_sharp #1: a bore's rim
+//! turning 286° inside the hole).
 
 #include <array>
 #include <optional>
@@ -42,6 +49,14 @@ struct CreaseOptions {
   double corner_tolerance = 0.1;
   //! Arc length of the crease used for the tangent fit, in hole diameters (perimeter / π).
   double fit_length = 0.5;
+  //! A pair whose tangents turn by at least this between the crossings may be joined by a
+  //! circular arc (below it the straight pairing above decides, and a Hermite curve joins).
+  double min_arc_turn_deg = 60;
+  //! An arc joins two crossings only if the curvature fitted to each crease is within this
+  //! factor of the arc's either way (and bends towards the arc's centre): the fit over a few
+  //! edges of a scanned or coarsely meshed rim is rough, but a straight crease (no curvature)
+  //! never passes. Below 1 disables arcs.
+  double arc_curvature_factor = 2.0;
   HermiteOptions hermite;
   //! Fair each region between the curves on its own (bi-Laplacian, the other regions treated
   //! as absent; a patch that would then intersect the mesh stays flat), or keep it flat. Unset:
@@ -55,7 +70,13 @@ struct CreaseCrossing {
   std::size_t loop_index = 0;  //!< index into Hole::loop
   VertexHandle vertex;
   Vec3 position{0, 0, 0};
-  Vec3 inward{0, 0, 0};     //!< unit tangent continuing the crease into the hole
+  Vec3 inward{0, 0, 0};  //!< unit tangent continuing the crease into the hole
+  //! Curvature vector of the crease at the rim (κ times the unit normal towards the centre of
+  //! its osculating circle), from the same fit as the tangent.
+  Vec3 curvature{0, 0, 0};
+  //! The crease's first points from the rim (position first) over which the curvature was
+  //! fitted: a circular arc through two crossings is fitted to both ends' points.
+  std::vector<Vec3> near_rim;
   Vec3 far_point{0, 0, 0};  //!< a point on the tangent line outside the hole (P1 or P4)
   //! A point on the traced crease itself, the fit length along it from the rim (or its end):
   //! where an operator feeling along the crease would pick P1 or P4.
@@ -65,12 +86,38 @@ struct CreaseCrossing {
   std::size_t traced_edges = 0;
 };
 
+//! A circular arc from `start` turning by `angle` radians: centre + cos φ·(start − centre) +
+//! sin φ·radius·start_direction, φ in [0, angle].
+struct CreaseArc {
+  Vec3 centre{0, 0, 0};
+  Vec3 start{0, 0, 0};
+  Vec3 start_direction{0, 0, 0};  //!< unit tangent at start
+  double radius = 0;
+  double angle = 0;
+
+  Vec3 at(double t) const;  //!< t in [0, 1]
+  double length() const { return radius * angle; }
+};
+
+//! The circular arc from crossing \p a to crossing \p b that both creases continue into the hole,
+//! or none: when the tangents turn by less than \p min_turn_deg (a straight pairing), or the arc
+//! does not leave along a's tangent and arrive along b's (within \p max_angle_deg), or a fitted
+//! curvature differs from the arc's by more than the factor \p curvature_factor either way
+//! or bends away from its centre. \p score receives the angle between b's tangent and the arc's
+//! arrival.
+std::optional<CreaseArc> crease_arc_between(const CreaseCrossing& a, const CreaseCrossing& b,
+                                            double min_turn_deg, double max_angle_deg,
+                                            double curvature_factor, double* score = nullptr);
+
 //! One feature curve through the hole: between two crossings, or from a crossing to the corner.
 struct CreaseCurve {
   std::size_t from = 0;           //!< crossing index
   std::optional<std::size_t> to;  //!< crossing index; none: ends at the plan's corner
   HermitePoints points;           //!< P1..P4 of the curve (seed 000 Fig. 4.2)
   HermiteCurve curve;
+  //! A curved crease's arc (crease_arc_between): when set, the curve through the hole is this
+  //! arc, and `curve` the Hermite curve of the same four points (for a preview that draws one).
+  std::optional<CreaseArc> arc;
 };
 
 struct HoleCreasePlan {

@@ -316,7 +316,7 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
       result.failure = curve_name + curve.failure;
       return result;
     }
-    plan.curves.push_back({*a, *b, p, *curve.curve});
+    plan.curves.push_back({*a, *b, p, *curve.curve, std::nullopt});
     if (k == 0) {
       result.points = p;
       result.crease_tangent_start = ends.start;

@@ -191,11 +191,18 @@ int main(int argc, char** argv) {
           const geo::Hole& hole = planned->hole();
           const geo::HoleCreasePlan& plan = planned->plan;
           const geo::CreaseCurve* pair = nullptr;
-          for (const auto& curve : plan.curves)
-            if (curve.to && pair == nullptr) pair = &curve;
+          // The thesis' four picks make a Hermite curve: a pair the detection joins by an arc
+          // (a ring turning further than a cubic can follow) is not one to pick.
+          bool arcs = false;
+          for (const auto& curve : plan.curves) {
+            arcs = arcs || curve.arc.has_value();
+            if (curve.to && !curve.arc && pair == nullptr) pair = &curve;
+          }
           if (pair == nullptr) {
-            fmt::print("| {} | {} | {} | {} | no crease pair to pick | - | - | - | - |\n", name,
-                       ch.id, variant_name, geo::to_string(tangents));
+            fmt::print("| {} | {} | {} | {} | {} | - | - | - | - |\n", name, ch.id, variant_name,
+                       geo::to_string(tangents),
+                       arcs ? "no crease pair a Hermite curve can follow (joined by arcs)"
+                            : "no crease pair to pick");
             continue;
           }
           const geo::CreaseCrossing& from = plan.crossings[pair->from];

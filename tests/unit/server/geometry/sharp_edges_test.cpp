@@ -254,5 +254,63 @@ TEST(CurveSplit, CurvePassingByABoundaryVertexIsCutThere) {
   EXPECT_GT(triangle_quality(triangles).min_angle_deg, 25.0);
 }
 
+//! A crossing on the circle of radius \p r about the origin in the plane z = 0 at angle \p at
+//! (radians), its crease running outside the hole the other way round (clockwise when \p ccw,
+//! i.e. continuing counter-clockwise into the hole), with \p curvature_scale times the circle's
+//! curvature and points along the circle by the rim.
+CreaseCrossing ring_crossing(double r, double at, bool ccw, double curvature_scale) {
+  const auto on_circle = [r](double phi) { return Vec3(r * std::cos(phi), r * std::sin(phi), 0); };
+  CreaseCrossing c;
+  c.position = on_circle(at);
+  const double way = ccw ? 1.0 : -1.0;
+  c.inward = way * Vec3(-std::sin(at), std::cos(at), 0);
+  c.curvature = -curvature_scale / r * Vec3(std::cos(at), std::sin(at), 0);
+  for (int k = 0; k < 4; ++k) c.near_rim.push_back(on_circle(at - way * 0.1 * k));
+  return c;
+}
+
+// A bore's rim cut by a hole: the arc between two crossings continues both creases, however far
+// it turns inside the hole (here 290 deg, beyond any cubic Hermite curve); a straight crease, a
+// bend the wrong way and tangents that disagree make no arc.
+TEST(SharpEdges, CreasesOnOneCircleAreJoinedByItsArc) {
+  const double r = 0.5;
+  const double start = 0.0, end = 290.0 * std::numbers::pi / 180.0;
+  const CreaseCrossing a = ring_crossing(r, start, true, 1.0);
+  const CreaseCrossing b = ring_crossing(r, end, false, 1.0);
+  double score = -1;
+  const auto arc = crease_arc_between(a, b, 60, 35, 2.0, &score);
+  ASSERT_TRUE(arc);
+  EXPECT_NEAR(score, 0.0, 1e-9);
+  EXPECT_NEAR(arc->radius, r, 1e-9);
+  EXPECT_NEAR(arc->centre.norm(), 0.0, 1e-9);
+  EXPECT_NEAR(arc->angle, end - start, 1e-9);
+  EXPECT_NEAR((arc->at(1.0) - b.position).norm(), 0.0, 1e-9);
+  for (double t = 0; t <= 1.0; t += 0.125) EXPECT_NEAR(arc->at(t).norm(), r, 1e-9);
+  // Halfway round the arc it passes the far side of the circle (145 deg), not the chord.
+  const double half = end / 2;
+  EXPECT_NEAR((arc->at(0.5) - Vec3(r * std::cos(half), r * std::sin(half), 0)).norm(), 0, 1e-9);
+
+  // Tangents fitted with a bias (the ends' own points fix the circle): still the same circle.
+  CreaseCrossing tilted_a = a, tilted_b = b;
+  const double tilt = 8.0 * std::numbers::pi / 180.0;
+  tilted_a.inward = std::cos(tilt) * a.inward + std::sin(tilt) * Vec3(1, 0, 0);
+  tilted_b.inward =
+      std::cos(tilt) * b.inward + std::sin(tilt) * Vec3(std::cos(end), std::sin(end), 0);
+  const auto refit = crease_arc_between(tilted_a, tilted_b, 60, 35, 2.0);
+  ASSERT_TRUE(refit);
+  EXPECT_NEAR(refit->radius, r, 1e-6);
+
+  // Straight creases (no curvature) are the straight pairing's, not an arc's.
+  EXPECT_FALSE(crease_arc_between(ring_crossing(r, start, true, 0.0),
+                                  ring_crossing(r, end, false, 0.0), 60, 35, 2.0));
+  // Creases bending away from the arc's centre, or three times too sharply.
+  EXPECT_FALSE(crease_arc_between(ring_crossing(r, start, true, -1.0), b, 60, 35, 2.0));
+  EXPECT_FALSE(crease_arc_between(ring_crossing(r, start, true, 3.0), b, 60, 35, 2.0));
+  // Both creases leaving the same way round do not meet on one circle.
+  EXPECT_FALSE(crease_arc_between(a, ring_crossing(r, end, true, 1.0), 60, 35, 2.0));
+  // A factor below 1 turns arcs off.
+  EXPECT_FALSE(crease_arc_between(a, b, 60, 35, 0.0));
+}
+
 }  // namespace
 }  // namespace touchmend::geometry
