@@ -181,6 +181,69 @@ std::optional<Vec3> nearest_point_to_lines(const std::vector<Vec3>& origins,
   return Vec3(x.x(), x.y(), x.z());
 }
 
+//! Where a point lies along \p arc: its angle from the start in [0, 2π) and its distance from
+//! the arc's circle.
+std::pair<double, double> arc_position(const CreaseArc& arc, const Vec3& p) {
+  const Vec3 radial = (arc.start - arc.centre) / arc.radius;
+  const Vec3 axis = OpenMesh::cross(radial, arc.start_direction);
+  const Vec3 d = p - arc.centre;
+  const double x = OpenMesh::dot(d, radial), y = OpenMesh::dot(d, arc.start_direction);
+  double phi = std::atan2(y, x);
+  if (phi < 0) phi += 2 * std::numbers::pi;
+  const double off_circle = std::hypot(std::hypot(x, y) - arc.radius, OpenMesh::dot(d, axis));
+  return {phi, off_circle};
+}
+
+//! The part of \p arc from angle \p from to angle \p to.
+CreaseArc sub_arc(const CreaseArc& arc, double from, double to) {
+  CreaseArc out = arc;
+  const Vec3 radial = arc.start - arc.centre;
+  out.start =
+      arc.centre + std::cos(from) * radial + std::sin(from) * arc.radius * arc.start_direction;
+  out.start_direction =
+      -std::sin(from) * radial / arc.radius + std::cos(from) * arc.start_direction;
+  out.angle = to - from;
+  return out;
+}
+
+//! The stretches of \p arc that cross the hole: a ring may run along the rim for a while and cut
+//! across the hole only for the rest (couplingdown_sml #2: a 315° arc between two crossings of
+//! which 58% lies on the rim). Boundary vertices within a quarter of \p edge_length of the arc
+//! cut it; of the pieces between consecutive cuts those whose middle is that near the rim too
+//! run along it and are dropped, and a piece between two neighbouring boundary vertices is their
+//! boundary edge. Returns (angle from, angle to, loop index from, loop index to) per piece.
+struct ArcPiece {
+  double from, to;
+  std::size_t loop_from, loop_to;
+};
+std::vector<ArcPiece> arc_pieces_across(const CreaseArc& arc, std::size_t loop_from,
+                                        std::size_t loop_to, const std::vector<Vec3>& rim,
+                                        double edge_length) {
+  const double near = 0.25 * edge_length;
+  const std::size_t n = rim.size();
+  std::vector<std::pair<double, std::size_t>> cuts{{0.0, loop_from}, {arc.angle, loop_to}};
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i == loop_from || i == loop_to) continue;
+    const auto [phi, off] = arc_position(arc, rim[i]);
+    if (off <= near && phi > 0 && phi < arc.angle) cuts.emplace_back(phi, i);
+  }
+  std::sort(cuts.begin(), cuts.end());
+  const auto near_rim = [&](const Vec3& q) {
+    for (std::size_t i = 0; i < n; ++i)
+      if (segment_segment_distance2(q, q, rim[i], rim[(i + 1) % n]) <= near * near) return true;
+    return false;
+  };
+  std::vector<ArcPiece> pieces;
+  for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+    const auto [a, i] = cuts[k];
+    const auto [b, j] = cuts[k + 1];
+    if (i == j || (i + 1) % n == j || (j + 1) % n == i) continue;
+    if (near_rim(sub_arc(arc, a, b).at(0.5))) continue;
+    pieces.push_back({a, b, i, j});
+  }
+  return pieces;
+}
+
 bool interleaved(std::size_t a, std::size_t b, std::size_t c, std::size_t d) {
   if (a > b) std::swap(a, b);
   if (c > d) std::swap(c, d);
@@ -471,9 +534,10 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     p.b = keep(p.b);
   }
   for (std::size_t& i : left) i = keep(i);
-  const std::size_t reported = plan.crossings.size();
 
   const double tolerance = 1e-9 * std::max(diameter, 1e-300);
+  std::vector<Vec3> rim;
+  for (const VertexHandle v : hole.loop) rim.push_back(mesh.point(v));
   for (const Candidate& p : pairs) {
     const CreaseCrossing& ca = plan.crossings[p.a];
     const CreaseCrossing& cb = plan.crossings[p.b];
@@ -485,6 +549,55 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     if (!r.curve) continue;
     curve.curve = *r.curve;
     curve.arc = p.arc;
+    if (curve.arc) {
+      const std::vector<ArcPiece> pieces =
+          arc_pieces_across(*curve.arc, ca.loop_index, cb.loop_index, rim, hole.mean_edge_length);
+      if (pieces.size() != 1 || pieces[0].loop_from != ca.loop_index ||
+          pieces[0].loop_to != cb.loop_index) {
+        // The ring meets the hole elsewhere than at the pair's crossings: each piece across
+        // the hole is a curve of its own, between the boundary vertices where it leaves the
+        // rim (crossings added for them, tangent and bend the arc's).
+        const CreaseArc whole = *curve.arc;
+        const CreaseCrossing model = ca;
+        for (const ArcPiece& piece : pieces) {
+          const CreaseArc part = sub_arc(whole, piece.from, piece.to);
+          const auto crossing_at = [&](std::size_t loop_index, const Vec3& inward) {
+            for (std::size_t x = 0; x < plan.crossings.size(); ++x)
+              if (plan.crossings[x].loop_index == loop_index) return x;
+            CreaseCrossing c = model;
+            c.loop_index = loop_index;
+            c.vertex = hole.loop[loop_index];
+            c.position = rim[loop_index];
+            c.inward = inward;
+            c.far_point = c.position - crease_fit_length(hole.perimeter, hole.mean_edge_length,
+                                                         options.fit_length) *
+                                           inward;
+            c.on_crease = c.position;
+            c.curvature = (whole.centre - c.position) / (whole.radius * whole.radius);
+            c.near_rim = {c.position};
+            c.traced_edges = 0;
+            plan.crossings.push_back(c);
+            return plan.crossings.size() - 1;
+          };
+          const Vec3 end_direction =
+              -std::sin(part.angle) * (part.start - part.centre) / part.radius +
+              std::cos(part.angle) * part.start_direction;
+          CreaseCurve piece_curve;
+          piece_curve.from = crossing_at(piece.loop_from, part.start_direction);
+          piece_curve.to = crossing_at(piece.loop_to, -end_direction);
+          const CreaseCrossing& pa = plan.crossings[piece_curve.from];
+          const CreaseCrossing& pb = plan.crossings[*piece_curve.to];
+          piece_curve.points = {pa.far_point, pa.position, pb.position, pb.far_point};
+          const HermiteCurveResult hr =
+              make_hermite_curve(piece_curve.points, options.hermite, tolerance);
+          if (!hr.curve) continue;
+          piece_curve.curve = *hr.curve;
+          piece_curve.arc = part;
+          plan.curves.push_back(piece_curve);
+        }
+        continue;
+      }
+    }
     plan.curves.push_back(curve);
   }
 
@@ -498,8 +611,8 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   }
   if (plan.corner) left.clear();
   plan.unmatched = left;
-  plan.summary = fmt::format("{} crease crossings, {} curves{}{}", reported, plan.curves.size(),
-                             plan.corner ? " meeting at a corner" : "",
+  plan.summary = fmt::format("{} crease crossings, {} curves{}{}", plan.crossings.size(),
+                             plan.curves.size(), plan.corner ? " meeting at a corner" : "",
                              left.empty() ? "" : fmt::format(", {} unmatched", left.size()));
   return plan;
 }
