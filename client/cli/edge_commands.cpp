@@ -200,6 +200,7 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
         {"corner_creases", picked.corner.size()},
         {"corner", r.corner ? point_json(*r.corner) : nlohmann::json()},
         {"crease_tangents_taken", r.crease_tangents_taken},
+        {"arcs", r.arcs},
         {"fill", to_json(r.fill)},
         {"snapped", r.snap.moved},
         {"split_edges", r.snap.splits},
@@ -226,7 +227,12 @@ int run_sharpen(const SharpenArgs& args, std::ostream& out, std::ostream& err) {
           geometry::push_down_summary(r, options.finish));
     else
       out << "sharp edge retained (split): the hole was filled on both sides of "
-          << (one_curve ? "the curve" : "every curve") << "\n";
+          << (one_curve ? "the curve" : "every curve")
+          << (r.arcs > 0 ? fmt::format(" ({} of them a circular arc that the picked creases "
+                                       "continue, not a Hermite curve)",
+                                       r.arcs)
+                         : std::string())
+          << "\n";
     out << fmt::format("wrote {} ({} vertices, {} faces)\n", args.output, written.vertices_written,
                        written.faces_written);
   }

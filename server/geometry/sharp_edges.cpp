@@ -327,13 +327,14 @@ std::optional<CreaseArc> crease_arc_between(const CreaseCrossing& a, const Creas
   return arc;
 }
 
-std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
-                                           double angle_deg, double tolerance, double fit_length) {
+std::optional<CreaseShape> crease_shape_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
+                                                double angle_deg, double tolerance,
+                                                double fit_length) {
   if (!at.is_valid() || !std::isfinite(tolerance) || !(tolerance > 0)) return std::nullopt;
   const Vec3& origin = mesh.point(at);
   // Far enough to pass the pick; the trace ends earlier where the crease does.
   const double budget = std::max(1.5 * (pick - origin).norm() + tolerance, fit_length);
-  std::optional<Vec3> best;
+  std::optional<CreaseShape> best;
   double best_distance2 = tolerance * tolerance;
   FaceNormals normals(mesh, 64);
   for (const HalfedgeHandle h : mesh.voh_range(at)) {
@@ -347,9 +348,21 @@ std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, co
     const Vec3 tangent = fitted_tangent(polyline, fit_length);
     if (!(tangent.norm() > 0)) continue;
     best_distance2 = distance2;
-    best = tangent;
+    // The bend as the automatic plan measures it (plan_hole_creases).
+    const CreaseFit bend = fit_crease(polyline, kCurvatureFitShare * fit_length, 3);
+    best = CreaseShape{
+        tangent, bend.curvature,
+        std::vector<Vec3>(polyline.begin(),
+                          polyline.begin() + static_cast<std::ptrdiff_t>(bend.points_used + 1))};
   }
   return best;
+}
+
+std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
+                                           double angle_deg, double tolerance, double fit_length) {
+  const auto shape = crease_shape_towards(mesh, at, pick, angle_deg, tolerance, fit_length);
+  if (!shape) return std::nullopt;
+  return shape->tangent;
 }
 
 bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings,

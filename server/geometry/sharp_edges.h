@@ -153,6 +153,18 @@ bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings
 std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
                                            double angle_deg, double tolerance, double fit_length);
 
+//! What crease_tangent_towards finds, with the crease's bend there as plan_hole_creases
+//! measures it: for picks on a curved crease (a ring), so that two picked ends can be joined by
+//! the arc both continue (crease_arc_between) instead of a Hermite curve.
+struct CreaseShape {
+  Vec3 tangent{0, 0, 0};       //!< unit, from the rim along the crease towards the pick
+  Vec3 curvature{0, 0, 0};     //!< κ·N at the rim
+  std::vector<Vec3> near_rim;  //!< the crease's first points from the rim (rim first)
+};
+std::optional<CreaseShape> crease_shape_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
+                                                double angle_deg, double tolerance,
+                                                double fit_length);
+
 //! A hole loop with curves through it, as the split triangulation needs it (points only).
 struct CurveSplitInput {
   std::span<const Vec3> loop;      //!< hole on the left of i -> i+1

@@ -100,6 +100,39 @@ std::optional<Vec3> crease_direction(const Mesh& mesh, VertexHandle at, const Ve
       crease_fit_length(perimeter, mean_edge_length, CreaseOptions{}.fit_length));
 }
 
+//! The circular arc that the creases picked at rim vertices \p from (towards \p pick_from) and
+//! \p to (towards \p pick_to) both continue into the hole, when both are curved alike
+//! (crease_arc_between with the automatic plan's limits; an operator who picks both ends of one
+//! crease vouches for the pairing, so the looser angle applies). None for straight creases, or
+//! when no crease leads to a pick.
+std::optional<CreaseArc> picked_crease_arc(const Mesh& mesh, const Hole& hole, std::size_t from,
+                                           const Vec3& pick_from, std::size_t to,
+                                           const Vec3& pick_to, const SharpenOptions& options) {
+  const CreaseOptions& plan = options.fill.creases;
+  const double fit_length =
+      crease_fit_length(hole.perimeter, hole.mean_edge_length, CreaseOptions{}.fit_length);
+  const double tolerance = options.crease_pick_tolerance * hole.mean_edge_length;
+  const auto crossing = [&](std::size_t loop_index,
+                            const Vec3& pick) -> std::optional<CreaseCrossing> {
+    const auto shape = crease_shape_towards(mesh, hole.loop[loop_index], pick,
+                                            options.crease_angle_deg, tolerance, fit_length);
+    if (!shape) return std::nullopt;
+    CreaseCrossing c;
+    c.loop_index = loop_index;
+    c.vertex = hole.loop[loop_index];
+    c.position = mesh.point(c.vertex);
+    c.inward = -shape->tangent;
+    c.curvature = shape->curvature;
+    c.near_rim = shape->near_rim;
+    return c;
+  };
+  const auto a = crossing(from, pick_from);
+  const auto b = crossing(to, pick_to);
+  if (!a || !b) return std::nullopt;
+  return crease_arc_between(*a, *b, plan.min_arc_turn_deg, plan.loose_pair_angle_deg,
+                            plan.arc_curvature_factor);
+}
+
 //! take_crease_tangents on the rim of \p hole (loop indices of P2's and P3's vertices); the
 //! picks unchanged with chord tangents.
 CreaseTangentPicks take_hole_crease_tangents(const Mesh& mesh, const Hole& hole,
@@ -308,6 +341,7 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
     const std::size_t i2 = plan.crossings[*a].loop_index, i3 = plan.crossings[*b].loop_index;
     p.p2 = plan.crossings[*a].position;
     p.p3 = plan.crossings[*b].position;
+    const HermitePoints snapped = p;
     const CreaseTangentPicks ends = take_hole_crease_tangents(mesh, hole, i2, i3, options, p);
     p = ends.points;
     result.crease_tangents_taken += int{ends.start} + int{ends.end};
@@ -316,7 +350,13 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
       result.failure = curve_name + curve.failure;
       return result;
     }
-    plan.curves.push_back({*a, *b, p, *curve.curve, std::nullopt});
+    // Picks on both ends of a ring (a bore's rim): the arc both creases continue, which no
+    // Hermite curve from four points can follow past a half turn.
+    std::optional<CreaseArc> arc;
+    if (options.tangents == PickTangents::Crease && ends.start && ends.end)
+      arc = picked_crease_arc(mesh, hole, i2, snapped.p1, i3, snapped.p4, options);
+    if (arc) ++result.arcs;
+    plan.curves.push_back({*a, *b, p, *curve.curve, arc});
     if (k == 0) {
       result.points = p;
       result.crease_tangent_start = ends.start;

@@ -75,6 +75,9 @@ struct SharpenResult {
   //! creases took their crease's tangent (PickTangents::Crease).
   std::optional<Vec3> corner;
   int crease_tangents_taken = 0;
+  //! Split variant, PickTangents::Crease: picked curves joined by the circular arc both ends'
+  //! creases continue (a ring) instead of their Hermite curve.
+  int arcs = 0;
   std::optional<GuideSurface> guide;
   HoleFillReport fill;
   SnapReport snap;

@@ -191,18 +191,11 @@ int main(int argc, char** argv) {
           const geo::Hole& hole = planned->hole();
           const geo::HoleCreasePlan& plan = planned->plan;
           const geo::CreaseCurve* pair = nullptr;
-          // The thesis' four picks make a Hermite curve: a pair the detection joins by an arc
-          // (a ring turning further than a cubic can follow) is not one to pick.
-          bool arcs = false;
-          for (const auto& curve : plan.curves) {
-            arcs = arcs || curve.arc.has_value();
-            if (curve.to && !curve.arc && pair == nullptr) pair = &curve;
-          }
+          for (const auto& curve : plan.curves)
+            if (curve.to && pair == nullptr) pair = &curve;
           if (pair == nullptr) {
-            fmt::print("| {} | {} | {} | {} | {} | - | - | - | - |\n", name, ch.id, variant_name,
-                       geo::to_string(tangents),
-                       arcs ? "no crease pair a Hermite curve can follow (joined by arcs)"
-                            : "no crease pair to pick");
+            fmt::print("| {} | {} | {} | {} | no crease pair to pick | - | - | - | - |\n", name,
+                       ch.id, variant_name, geo::to_string(tangents));
             continue;
           }
           const geo::CreaseCrossing& from = plan.crossings[pair->from];
@@ -220,8 +213,9 @@ int main(int argc, char** argv) {
           const std::string tangent_name =
               tangents == geo::PickTangents::Chord
                   ? std::string("chord")
-                  : fmt::format("crease ({} of 2 ends)",
-                                int{r.crease_tangent_start} + int{r.crease_tangent_end});
+                  : fmt::format("crease ({} of 2 ends{})",
+                                int{r.crease_tangent_start} + int{r.crease_tangent_end},
+                                r.arcs > 0 ? ", an arc" : "");
           if (!r.ok) {
             fmt::print("| {} | {} | {} | {} | FAILED: {} | - | - | - | - |\n", name, ch.id,
                        variant_name, tangent_name, r.failure);
@@ -267,8 +261,9 @@ int main(int argc, char** argv) {
         const std::string tangent_name =
             tangents == geo::PickTangents::Chord
                 ? std::string("chord")
-                : fmt::format("crease ({} of {})", r.crease_tangents_taken,
-                              2 * picked.curves.size() + picked.corner.size());
+                : fmt::format("crease ({} of {}{})", r.crease_tangents_taken,
+                              2 * picked.curves.size() + picked.corner.size(),
+                              r.arcs > 0 ? fmt::format(", {} arcs", r.arcs) : std::string());
         if (!r.ok) {
           fmt::print("| {} | {} | every crease (split) | {} | FAILED: {} | - | - | - | - |\n", name,
                      ch.id, tangent_name, r.failure);
