@@ -311,6 +311,23 @@ TEST(SharpCasesPicked, EveryCreasePickedRetainsACornerCloserThanThePlainFill) {
   }
 }
 
+//! Fills \p hole (case hole \p case_hole of \p c) with `SharpMode::Auto`, expecting the crease
+//! split and every fill invariant; the patch's score.
+std::optional<testing::HoleScore> crease_split_score(Mesh& mesh, const Hole& hole,
+                                                     const std::vector<Hole>& holes,
+                                                     const testing::HoleCase& c,
+                                                     std::size_t case_hole) {
+  FillOptions options;
+  options.sharp = SharpMode::Auto;
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  const HoleFillReport r = fill_hole(mesh, hole, options);
+  EXPECT_TRUE(r.filled) << r.reason;
+  if (!r.filled) return std::nullopt;
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
+  return testing::score_fill(mesh, r, c, c.holes.at(case_hole));
+}
+
 // couplingdown_sharp #1 cuts across a boss and a bore: its creases are three rings (one turning
 // 290 deg inside the hole). Joined by circular arcs (crease_arc_between), the split fill is
 // closer to the ground truth than the plain fill everywhere the test can see (measured: H 16.75
@@ -331,14 +348,9 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
   EXPECT_EQ(arcs, 3u) << plan.summary;
   const auto s_plain = plain_fill_score(*c, 1);
   ASSERT_TRUE(s_plain);
-  FillOptions options;
-  options.sharp = SharpMode::Auto;
-  const testing::Snapshot before = testing::take_snapshot(mesh);
-  const HoleFillReport r = fill_hole(mesh, hole, options);
-  ASSERT_TRUE(r.filled) << r.reason;
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
-  const auto s = testing::score_fill(mesh, r, *c, c->holes.at(1));
+  const auto scored = crease_split_score(mesh, hole, holes, *c, 1);
+  ASSERT_TRUE(scored);
+  const testing::HoleScore& s = *scored;
   EXPECT_LT(s.hausdorff_permille, s_plain->hausdorff_permille - 3.0);
   EXPECT_LT(s.mean_permille, s_plain->mean_permille - 1.0);
   EXPECT_LT(s.crease_permille, s_plain->crease_permille - 5.0);
@@ -373,14 +385,9 @@ TEST(SharpCasesArcs, ARingTheRimFollowsIsCutToItsStretchAcrossTheHole) {
   EXPECT_GT(to_rim, 0.5 * hole.mean_edge_length);
   const auto s_plain = plain_fill_score(*c, 2);
   ASSERT_TRUE(s_plain);
-  FillOptions options;
-  options.sharp = SharpMode::Auto;
-  const testing::Snapshot before = testing::take_snapshot(mesh);
-  const HoleFillReport r = fill_hole(mesh, hole, options);
-  ASSERT_TRUE(r.filled) << r.reason;
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
-  const auto s = testing::score_fill(mesh, r, *c, c->holes.at(2));
+  const auto scored = crease_split_score(mesh, hole, holes, *c, 2);
+  ASSERT_TRUE(scored);
+  const testing::HoleScore& s = *scored;
   EXPECT_LT(s.crease_permille, s_plain->crease_permille - 5.0);
   EXPECT_LT(s.hausdorff_permille, s_plain->hausdorff_permille);
   EXPECT_LT(s.mean_permille, s_plain->mean_permille);
