@@ -311,6 +311,28 @@ TEST(SharpCasesPicked, EveryCreasePickedRetainsACornerCloserThanThePlainFill) {
   }
 }
 
+// DESIGN's smallest angle of 15° on the rocker arm's 264-vertex hole: the settling after the
+// second fairing leaves a cap whose obtuse corner fairing pulled against a rim edge (13.8°);
+// the pass on the triangles still under 15° mends it (measured 17.8°) without moving the patch
+// off the ground truth.
+TEST(HoleCaseQuality, CapsLeftUnderFifteenDegreesAreMendedOnTheFairedPatch) {
+  std::string error;
+  const auto c = testing::load_case("rocker-arm_xl", error);
+  ASSERT_TRUE(c) << error;
+  Mesh mesh = build_mesh(c->holed).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const auto id = testing::matching_hole_id(holes, c->holes.at(0));
+  ASSERT_TRUE(id);
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  const HoleFillReport r = fill_hole(mesh, holes[*find_hole_by_id(holes, *id)], FillOptions{});
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Fair);
+  EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
+  EXPECT_GE(r.min_angle_deg, 15.0);
+  const auto s = testing::score_fill(mesh, r, *c, c->holes.at(0));
+  EXPECT_LT(s.mean_permille, 21.5);  // every anchor (BASELINE.md) is at 21.5 or more
+}
+
 //! Fills \p hole (case hole \p case_hole of \p c) with `SharpMode::Auto`, expecting the crease
 //! split and every fill invariant; the patch's score.
 std::optional<testing::HoleScore> crease_split_score(Mesh& mesh, const Hole& hole,
