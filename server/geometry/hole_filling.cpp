@@ -679,6 +679,15 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
   const auto drop_collapsed = [&] {
     std::erase_if(vertices, [&](VertexHandle v) { return mesh.status(v).deleted(); });
   };
+  // One quality pass over every region, timed as mending.
+  const auto mend_regions = [&](const PatchQualityOptions& quality) {
+    for (std::size_t p = 0; p < pieces; ++p) {
+      const auto t0 = Clock::now();
+      improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], quality);
+      report.phases.mend += seconds_since(t0);
+    }
+    drop_collapsed();
+  };
   const auto mend = [&](bool keep_surface) {
     if (!options.improve_quality) return;
     PatchQualityOptions quality = options.quality;
@@ -694,12 +703,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
       quality.flat_fold_deg = quality.max_turn_deg;
       quality.flat_flip_tolerance = 0.1;
     }
-    for (std::size_t p = 0; p < pieces; ++p) {
-      const auto t0 = Clock::now();
-      improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], quality);
-      report.phases.mend += seconds_since(t0);
-    }
-    drop_collapsed();
+    mend_regions(quality);
   };
   report.shape = PatchShape::Flat;
   if (!fair) {
@@ -798,12 +802,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     // fairing coarsen the patch where fairing then places the rest (measured: three holes
     // farther from the ground truth, the 736-vertex hole's smallest angle 16.7 -> 14.4 deg).
     settle.collapse = true;
-    for (std::size_t p = 0; p < pieces; ++p) {
-      const auto t0 = Clock::now();
-      improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], settle);
-      report.phases.mend += seconds_since(t0);
-    }
-    drop_collapsed();
+    mend_regions(settle);
     // What the settling leaves under DESIGN's 15° is a cap whose obtuse corner fairing pulled
     // against a rim edge or a curve: its normal says little, and the flips and collapses that
     // mend it turn the sliver's neighbours by more than the 30° the settling allows. Only those
@@ -820,12 +819,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
       rescue.target_min_angle_deg = kRescueBelowDeg;
       rescue.max_turn_deg = 60.0;
       rescue.max_rounds = 4;
-      for (std::size_t p = 0; p < pieces; ++p) {
-        const auto t0 = Clock::now();
-        improve_patch_quality(mesh, piece_faces[p], piece_vertices[p], rescue);
-        report.phases.mend += seconds_since(t0);
-      }
-      drop_collapsed();
+      mend_regions(rescue);
     }
     gather();
   }
