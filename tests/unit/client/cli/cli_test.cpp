@@ -177,6 +177,36 @@ TEST_F(Cli, SharpenRetainsAnEdgeFromFourPoints) {
 
 // A box corner cut away, retained from picks on its three creases (--corner); a second curve
 // through the hole is given by repeating --points. The picks' rules are usage errors.
+// couplingdown_sharp's hole 996 takes in most of a bore's rim (a ring turning 290 deg inside the
+// hole): picked at both ends where it meets the rim, with P1 and P4 on the crease outside, the
+// split follows the arc both creases continue; with chord tangents there is no crease to read
+// the bend from, and the Hermite curve is used.
+TEST_F(Cli, SharpenFollowsAPickedRingAsAnArc) {
+  const std::string coupling = testing::shared_data_dir() + "/cases/couplingdown_sharp/holed.off";
+  const std::string ring =
+      " --points '0.117316,-0.009553,-0.025157;0.111210,0.017209,-0.025157;"
+      "0.117316,-0.009553,-0.025157;0.111210,0.017209,-0.025157'";
+  const std::string head =
+      "sharpen " + coupling + " -o " + path("ring.off") + " --hole 996 --method split" + ring;
+  const CliRun r = run(head + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["fill"]["filled"].get<bool>());
+  EXPECT_EQ(j["crease_tangents_taken"], 2);
+  EXPECT_EQ(j["arcs"], 1);
+  const auto read = geometry::read_mesh_file(path("ring.off"));
+  ASSERT_TRUE(read.ok);
+  const auto built = geometry::build_mesh(read.soup);
+  EXPECT_TRUE(built.report.is_clean());
+  EXPECT_EQ(geometry::find_holes(built.mesh).holes.size(), 2u);  // the other two stay open
+  const CliRun text = run(head);
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("a circular arc"), std::string::npos) << text.out;
+  const CliRun chord = run(head + " --tangents chord --json");
+  ASSERT_EQ(chord.code, 0) << chord.err;
+  EXPECT_EQ(nlohmann::json::parse(chord.out)["arcs"], 0);
+}
+
 TEST_F(Cli, SharpenRetainsACornerFromItsCreases) {
   const geometry::MeshSoup soup = testing::cube_with_hole(8, geometry::Vec3(8, 8, 8), 2.5);
   {
