@@ -136,8 +136,14 @@ CreaseFit fit_crease(const std::vector<Vec3>& points, double fit_length,
   return fit;
 }
 
-Vec3 fitted_tangent(const std::vector<Vec3>& points, double fit_length) {
-  return fit_crease(points, fit_length).tangent;
+//! A traced crease's direction (fitted over \p fit_length) and its bend by the rim, which is
+//! measured nearer the rim than the direction: over the whole length a bore's rim, a few edges
+//! long, is averaged with the straight crease it runs into.
+CreaseShape shape_of_crease(const std::vector<Vec3>& polyline, double fit_length) {
+  const CreaseFit bend = fit_crease(polyline, kCurvatureFitShare * fit_length, 3);
+  return {fit_crease(polyline, fit_length).tangent, bend.curvature,
+          std::vector<Vec3>(polyline.begin(),
+                            polyline.begin() + static_cast<std::ptrdiff_t>(bend.points_used + 1))};
 }
 
 //! The angle at which direction \p d leaves the boundary vertex \p b, counter-clockwise from
@@ -345,15 +351,10 @@ std::optional<CreaseShape> crease_shape_towards(const Mesh& mesh, VertexHandle a
       distance2 =
           std::min(distance2, segment_segment_distance2(polyline[i - 1], polyline[i], pick, pick));
     if (!(distance2 <= best_distance2)) continue;
-    const Vec3 tangent = fitted_tangent(polyline, fit_length);
-    if (!(tangent.norm() > 0)) continue;
+    CreaseShape shape = shape_of_crease(polyline, fit_length);  // as plan_hole_creases does
+    if (!(shape.tangent.norm() > 0)) continue;
     best_distance2 = distance2;
-    // The bend as the automatic plan measures it (plan_hole_creases).
-    const CreaseFit bend = fit_crease(polyline, kCurvatureFitShare * fit_length, 3);
-    best = CreaseShape{
-        tangent, bend.curvature,
-        std::vector<Vec3>(polyline.begin(),
-                          polyline.begin() + static_cast<std::ptrdiff_t>(bend.points_used + 1))};
+    best = std::move(shape);
   }
   return best;
 }
@@ -426,9 +427,9 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       const VertexHandle w = mesh.to_vertex_handle(h);
       if (w == prev || w == next || !is_sharp(normals, h, weak_angle)) continue;
       const std::vector<Vec3> polyline = trace_crease(normals, h, weak_angle, 4.0 * fit_length);
-      const CreaseFit fit = fit_crease(polyline, fit_length);
-      if (!(fit.tangent.norm() > 0)) continue;
-      const Vec3 inward = -fit.tangent;
+      CreaseShape shape = shape_of_crease(polyline, fit_length);
+      if (!(shape.tangent.norm() > 0)) continue;
+      const Vec3 inward = -shape.tangent;
       const auto [phi, corner] = wedge_angles(vertex_normal(normals, b), mesh.point(prev),
                                               mesh.point(b), mesh.point(next), inward);
       // Strictly inside the hole's corner at b (a crease along the boundary is not a crossing).
@@ -438,12 +439,8 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       c.vertex = b;
       c.position = mesh.point(b);
       c.inward = inward;
-      // The bend is measured nearer the rim than the direction: over the tangent's length a
-      // bore's rim, a few edges long, is averaged with the straight crease it runs into.
-      const CreaseFit bend = fit_crease(polyline, kCurvatureFitShare * fit_length, 3);
-      c.curvature = bend.curvature;
-      c.near_rim.assign(polyline.begin(),
-                        polyline.begin() + static_cast<std::ptrdiff_t>(bend.points_used + 1));
+      c.curvature = shape.curvature;
+      c.near_rim = std::move(shape.near_rim);
       c.far_point = c.position - fit_length * inward;
       c.on_crease = polyline.back();
       double walked = 0;

@@ -142,18 +142,25 @@ struct PickedScore {
   SharpenResult result;
   testing::HoleScore score;
 };
+//! The hole of \p holes that case hole \p case_hole of \p c left (a test failure if none).
+const Hole* case_hole_in(const std::vector<Hole>& holes, const testing::HoleCase& c,
+                         std::size_t case_hole) {
+  const auto id = testing::matching_hole_id(holes, c.holes.at(case_hole));
+  EXPECT_TRUE(id) << c.name << " hole " << case_hole << " is not among the mesh's holes";
+  return id ? &holes[*find_hole_by_id(holes, *id)] : nullptr;
+}
+
 //! Case hole \p case_hole of \p c filled alone without crease retaining (the fill the picks
 //! must beat), scored; none if it could not be filled.
 std::optional<testing::HoleScore> plain_fill_score(const testing::HoleCase& c,
                                                    std::size_t case_hole) {
   Mesh mesh = build_mesh(c.holed).mesh;
   const auto holes = find_holes(mesh).holes;
-  const auto id = testing::matching_hole_id(holes, c.holes.at(case_hole));
-  EXPECT_TRUE(id);
-  if (!id) return std::nullopt;
+  const Hole* hole = case_hole_in(holes, c, case_hole);
+  if (!hole) return std::nullopt;
   FillOptions plain;
   plain.sharp = SharpMode::Off;
-  const HoleFillReport p = fill_hole(mesh, holes[*find_hole_by_id(holes, *id)], plain);
+  const HoleFillReport p = fill_hole(mesh, *hole, plain);
   EXPECT_TRUE(p.filled) << p.reason;
   if (!p.filled) return std::nullopt;
   return testing::score_fill(mesh, p, c, c.holes.at(case_hole));
@@ -170,9 +177,9 @@ PickedScore sharpen_picked(const testing::HoleCase& c, std::size_t case_hole,
                            const CreaseOptions& detection = {}) {
   Mesh mesh = build_mesh(c.holed).mesh;
   const auto holes = find_holes(mesh).holes;
-  const auto id = testing::matching_hole_id(holes, c.holes.at(case_hole));
-  EXPECT_TRUE(id);
-  const Hole& hole = holes[*find_hole_by_id(holes, *id)];
+  const Hole* found = case_hole_in(holes, c, case_hole);
+  if (!found) return {};
+  const Hole& hole = *found;
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, detection);
   const double shift = offset * hole.mean_edge_length;
   const auto on_crease = [&](const CreaseCrossing& x) {
@@ -321,10 +328,10 @@ TEST(HoleCaseQuality, CapsLeftUnderFifteenDegreesAreMendedOnTheFairedPatch) {
   ASSERT_TRUE(c) << error;
   Mesh mesh = build_mesh(c->holed).mesh;
   const auto holes = find_holes(mesh).holes;
-  const auto id = testing::matching_hole_id(holes, c->holes.at(0));
-  ASSERT_TRUE(id);
+  const Hole* hole = case_hole_in(holes, *c, 0);
+  ASSERT_TRUE(hole);
   const testing::Snapshot before = testing::take_snapshot(mesh);
-  const HoleFillReport r = fill_hole(mesh, holes[*find_hole_by_id(holes, *id)], FillOptions{});
+  const HoleFillReport r = fill_hole(mesh, *hole, FillOptions{});
   ASSERT_TRUE(r.filled) << r.reason;
   EXPECT_EQ(r.shape, PatchShape::Fair);
   EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
@@ -361,9 +368,9 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
   ASSERT_TRUE(c) << error;
   Mesh mesh = build_mesh(c->holed).mesh;
   const auto holes = find_holes(mesh).holes;
-  const auto id = testing::matching_hole_id(holes, c->holes.at(1));
-  ASSERT_TRUE(id);
-  const Hole& hole = holes[*find_hole_by_id(holes, *id)];
+  const Hole* found = case_hole_in(holes, *c, 1);
+  ASSERT_TRUE(found);
+  const Hole& hole = *found;
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
   std::size_t arcs = 0;
   for (const CreaseCurve& curve : plan.curves) arcs += curve.arc ? 1 : 0;
@@ -389,9 +396,9 @@ TEST(SharpCasesArcs, ARingTheRimFollowsIsCutToItsStretchAcrossTheHole) {
   ASSERT_TRUE(c) << error;
   Mesh mesh = build_mesh(c->holed).mesh;
   const auto holes = find_holes(mesh).holes;
-  const auto id = testing::matching_hole_id(holes, c->holes.at(2));
-  ASSERT_TRUE(id);
-  const Hole& hole = holes[*find_hole_by_id(holes, *id)];
+  const Hole* found = case_hole_in(holes, *c, 2);
+  ASSERT_TRUE(found);
+  const Hole& hole = *found;
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
   ASSERT_EQ(plan.curves.size(), 1u) << plan.summary;
   ASSERT_TRUE(plan.curves[0].arc);
