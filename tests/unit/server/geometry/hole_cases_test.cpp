@@ -318,26 +318,37 @@ TEST(SharpCasesPicked, EveryCreasePickedRetainsACornerCloserThanThePlainFill) {
   }
 }
 
-// DESIGN's smallest angle of 15° on the rocker arm's 264-vertex hole: the settling after the
-// second fairing leaves a cap whose obtuse corner fairing pulled against a rim edge (13.8°);
-// the pass on the triangles still under 15° mends it (measured 17.8°) without moving the patch
-// off the ground truth.
+// DESIGN's smallest angle of 15°. On the rocker arm's 264-vertex hole the settling after the
+// second fairing leaves a cap whose obtuse corner fairing pulled against a rim edge (13.8°); on
+// couplingdown_sharp #0 (split along its crease, each side faired) a needle between a curve
+// sample and the rim (14.97° when the last pass worked only on the triangles under 15°: their
+// neighbours must make room too). The last pass mends both (measured 17.8° and 15.6°) without
+// moving the patch off the ground truth.
 TEST(HoleCaseQuality, CapsLeftUnderFifteenDegreesAreMendedOnTheFairedPatch) {
-  std::string error;
-  const auto c = testing::load_case("rocker-arm_xl", error);
-  ASSERT_TRUE(c) << error;
-  Mesh mesh = build_mesh(c->holed).mesh;
-  const auto holes = find_holes(mesh).holes;
-  const Hole* hole = case_hole_in(holes, *c, 0);
-  ASSERT_TRUE(hole);
-  const testing::Snapshot before = testing::take_snapshot(mesh);
-  const HoleFillReport r = fill_hole(mesh, *hole, FillOptions{});
-  ASSERT_TRUE(r.filled) << r.reason;
-  EXPECT_EQ(r.shape, PatchShape::Fair);
-  EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
-  EXPECT_GE(r.min_angle_deg, 15.0);
-  const auto s = testing::score_fill(mesh, r, *c, c->holes.at(0));
-  EXPECT_LT(s.mean_permille, 21.5);  // every anchor (BASELINE.md) is at 21.5 or more
+  struct Expected {
+    const char* name;
+    std::size_t case_hole;
+    double mean_below;  // the best anchor's mean distance (BASELINE.md)
+  };
+  for (const Expected& e :
+       {Expected{"rocker-arm_xl", 0, 21.5}, Expected{"couplingdown_sharp", 0, 4.61}}) {
+    SCOPED_TRACE(e.name);
+    std::string error;
+    const auto c = testing::load_case(e.name, error);
+    ASSERT_TRUE(c) << error;
+    Mesh mesh = build_mesh(c->holed).mesh;
+    const auto holes = find_holes(mesh).holes;
+    const Hole* hole = case_hole_in(holes, *c, e.case_hole);
+    ASSERT_TRUE(hole);
+    const testing::Snapshot before = testing::take_snapshot(mesh);
+    const HoleFillReport r = fill_hole(mesh, *hole, FillOptions{});
+    ASSERT_TRUE(r.filled) << r.reason;
+    EXPECT_EQ(r.shape, PatchShape::Fair);
+    EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
+    EXPECT_GE(r.min_angle_deg, 15.0);
+    const auto s = testing::score_fill(mesh, r, *c, c->holes.at(e.case_hole));
+    EXPECT_LT(s.mean_permille, e.mean_below);
+  }
 }
 
 //! Fills \p hole (case hole \p case_hole of \p c) with `SharpMode::Auto`, expecting the crease
