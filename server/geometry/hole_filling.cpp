@@ -634,8 +634,9 @@ constexpr double kRescueBelowDeg = 15.0;
 //! That pass works on the triangles under this angle, not only those under 15°: the sliver's
 //! neighbours must make room for it (a move or flip is still taken only when the worst triangle
 //! around it grows). Measured with goals of 15, 20, 22, 25, 30, 35°: couplingdown_sharp #0
-//! 14.97 -> 15.6° from 22° up, couplingdown_sml #0 10.7 -> 11.0°, #2 10.5 -> 11.0° at 25°; from
-//! 35° couplingdown_sharp #1's split is refused (its settled patch then crosses the mesh).
+//! 14.97 -> 15.6° from 22° up, #1 14.5 -> 14.8° and couplingdown_sml #2 10.5 -> 11.0° at 25°
+//! (#1's crease distance 12.75 -> 13.17 per mille); from 35° couplingdown_sharp #1's split is
+//! refused (its settled patch then crosses the mesh).
 constexpr double kRescueGoalDeg = 25.0;
 
 //! Refines the inserted patch, mends its triangles (patch_quality.h) and gives it its shape.

@@ -305,7 +305,7 @@ TEST(SharpCasesPicked, EveryCreasePickedRetainsACornerCloserThanThePlainFill) {
     EXPECT_LT(every.score.hausdorff_permille, s_plain->hausdorff_permille - 2.0) << name;
     EXPECT_LT(every.score.mean_permille, s_plain->mean_permille - 0.2) << name;
     // couplingdown #1's creases are rings: each picked pair is followed as the arc both of its
-    // creases continue (measured 16.75 / 2.28 per mille against the plain 22.86 / 3.82; as
+    // creases continue (measured 16.70 / 2.30 per mille against the plain 22.86 / 3.82; as
     // Hermite curves 23.06 / 4.12).
     if (name == "couplingdown_sharp" && case_hole == 1) {
       EXPECT_EQ(every.result.arcs, 3);
@@ -370,8 +370,8 @@ std::optional<testing::HoleScore> crease_split_score(Mesh& mesh, const Hole& hol
 
 // couplingdown_sharp #1 cuts across a boss and a bore: its creases are three rings (one turning
 // 290 deg inside the hole). Joined by circular arcs (crease_arc_between), the split fill is
-// closer to the ground truth than the plain fill everywhere the test can see (measured: H 16.75
-// vs 22.86 per mille, mean 2.28 vs 3.82, crease 12.75 vs 20.65; before arcs the detection paired
+// closer to the ground truth than the plain fill everywhere the test can see (measured: H 16.70
+// vs 22.86 per mille, mean 2.30 vs 3.82, crease 13.17 vs 20.65; before arcs the detection paired
 // creases of different rings, and the split crossed the mesh).
 TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
   std::string error;
