@@ -9,6 +9,7 @@
 // triangulation and by ear clipping.
 
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <set>
@@ -148,6 +149,26 @@ const Hole* case_hole_in(const std::vector<Hole>& holes, const testing::HoleCase
   const auto id = testing::matching_hole_id(holes, c.holes.at(case_hole));
   EXPECT_TRUE(id) << c.name << " hole " << case_hole << " is not among the mesh's holes";
   return id ? &holes[*find_hole_by_id(holes, *id)] : nullptr;
+}
+
+//! A case with its holed mesh built and its holes found: where the single-hole tests start.
+struct CaseMesh {
+  testing::HoleCase c;
+  Mesh mesh;
+  std::vector<Hole> holes;
+};
+std::unique_ptr<CaseMesh> load_case_mesh(const std::string& name) {
+  std::string error;
+  auto c = testing::load_case(name, error);
+  if (!c) {
+    ADD_FAILURE() << error;
+    return nullptr;
+  }
+  auto loaded = std::make_unique<CaseMesh>();
+  loaded->c = std::move(*c);
+  loaded->mesh = build_mesh(loaded->c.holed).mesh;
+  loaded->holes = find_holes(loaded->mesh).holes;
+  return loaded;
 }
 
 //! Case hole \p case_hole of \p c filled alone without crease retaining (the fill the picks
@@ -333,12 +354,10 @@ TEST(HoleCaseQuality, CapsLeftUnderFifteenDegreesAreMendedOnTheFairedPatch) {
   for (const Expected& e :
        {Expected{"rocker-arm_xl", 0, 21.5}, Expected{"couplingdown_sharp", 0, 4.61}}) {
     SCOPED_TRACE(e.name);
-    std::string error;
-    const auto c = testing::load_case(e.name, error);
-    ASSERT_TRUE(c) << error;
-    Mesh mesh = build_mesh(c->holed).mesh;
-    const auto holes = find_holes(mesh).holes;
-    const Hole* hole = case_hole_in(holes, *c, e.case_hole);
+    const auto loaded = load_case_mesh(e.name);
+    ASSERT_TRUE(loaded);
+    auto& [c, mesh, holes] = *loaded;
+    const Hole* hole = case_hole_in(holes, c, e.case_hole);
     ASSERT_TRUE(hole);
     const testing::Snapshot before = testing::take_snapshot(mesh);
     const HoleFillReport r = fill_hole(mesh, *hole, FillOptions{});
@@ -346,7 +365,7 @@ TEST(HoleCaseQuality, CapsLeftUnderFifteenDegreesAreMendedOnTheFairedPatch) {
     EXPECT_EQ(r.shape, PatchShape::Fair);
     EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
     EXPECT_GE(r.min_angle_deg, 15.0);
-    const auto s = testing::score_fill(mesh, r, *c, c->holes.at(e.case_hole));
+    const auto s = testing::score_fill(mesh, r, c, c.holes.at(e.case_hole));
     EXPECT_LT(s.mean_permille, e.mean_below);
   }
 }
@@ -374,21 +393,19 @@ std::optional<testing::HoleScore> crease_split_score(Mesh& mesh, const Hole& hol
 // vs 22.86 per mille, mean 2.30 vs 3.82, crease 13.17 vs 20.65; before arcs the detection paired
 // creases of different rings, and the split crossed the mesh).
 TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
-  std::string error;
-  const auto c = testing::load_case("couplingdown_sharp", error);
-  ASSERT_TRUE(c) << error;
-  Mesh mesh = build_mesh(c->holed).mesh;
-  const auto holes = find_holes(mesh).holes;
-  const Hole* found = case_hole_in(holes, *c, 1);
+  const auto loaded = load_case_mesh("couplingdown_sharp");
+  ASSERT_TRUE(loaded);
+  auto& [c, mesh, holes] = *loaded;
+  const Hole* found = case_hole_in(holes, c, 1);
   ASSERT_TRUE(found);
   const Hole& hole = *found;
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
   std::size_t arcs = 0;
   for (const CreaseCurve& curve : plan.curves) arcs += curve.arc ? 1 : 0;
   EXPECT_EQ(arcs, 3u) << plan.summary;
-  const auto s_plain = plain_fill_score(*c, 1);
+  const auto s_plain = plain_fill_score(c, 1);
   ASSERT_TRUE(s_plain);
-  const auto scored = crease_split_score(mesh, hole, holes, *c, 1);
+  const auto scored = crease_split_score(mesh, hole, holes, c, 1);
   ASSERT_TRUE(scored);
   const testing::HoleScore& s = *scored;
   EXPECT_LT(s.hausdorff_permille, s_plain->hausdorff_permille - 3.0);
@@ -402,12 +419,10 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
 // it keeps the ring (measured: crease 3.12 against the plain fill's 12.78 per mille; the whole
 // arc laid regions over the surrounding surface and both splits crossed the mesh).
 TEST(SharpCasesArcs, ARingTheRimFollowsIsCutToItsStretchAcrossTheHole) {
-  std::string error;
-  const auto c = testing::load_case("couplingdown_sml", error);
-  ASSERT_TRUE(c) << error;
-  Mesh mesh = build_mesh(c->holed).mesh;
-  const auto holes = find_holes(mesh).holes;
-  const Hole* found = case_hole_in(holes, *c, 2);
+  const auto loaded = load_case_mesh("couplingdown_sml");
+  ASSERT_TRUE(loaded);
+  auto& [c, mesh, holes] = *loaded;
+  const Hole* found = case_hole_in(holes, c, 2);
   ASSERT_TRUE(found);
   const Hole& hole = *found;
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
@@ -423,9 +438,9 @@ TEST(SharpCasesArcs, ARingTheRimFollowsIsCutToItsStretchAcrossTheHole) {
                                   middle, middle, mesh.point(hole.loop[i]),
                                   mesh.point(hole.loop[(i + 1) % hole.loop.size()]))));
   EXPECT_GT(to_rim, 0.5 * hole.mean_edge_length);
-  const auto s_plain = plain_fill_score(*c, 2);
+  const auto s_plain = plain_fill_score(c, 2);
   ASSERT_TRUE(s_plain);
-  const auto scored = crease_split_score(mesh, hole, holes, *c, 2);
+  const auto scored = crease_split_score(mesh, hole, holes, c, 2);
   ASSERT_TRUE(scored);
   const testing::HoleScore& s = *scored;
   EXPECT_LT(s.crease_permille, s_plain->crease_permille - 5.0);
