@@ -454,6 +454,9 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
         walked += step;
       }
       c.dihedral_deg = dihedral_deg(normals, h);
+      for (const HalfedgeHandle o : mesh.voh_range(b))
+        if (o != h && !mesh.is_boundary(mesh.edge_handle(o)))
+          c.other_bends_deg = std::max(c.other_bends_deg, dihedral_deg(normals, o));
       // Convex (a ridge) when the face on one side sees the other side's far vertex below it.
       const FaceHandle f0 = mesh.face_handle(h);
       const VertexHandle across =
@@ -469,7 +472,10 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   // crease fades towards a hole) and one kind of fold: a ridge does not continue as a valley.
   const std::size_t m = found.size();
   const auto strong = [&](std::size_t i) {
-    return found[i].dihedral_deg > options.crease_angle_deg;
+    const CreaseCrossing& c = found[i];
+    return c.dihedral_deg > options.crease_angle_deg ||
+           (c.dihedral_deg > options.clean_crease_angle_deg && c.traced_edges >= 2 &&
+            c.other_bends_deg <= options.clean_crease_ratio * c.dihedral_deg);
   };
   struct Candidate {
     double score;
@@ -526,12 +532,27 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   };
   for (const Candidate& c : candidates) try_pair(c, options.pair_angle_deg * kDeg);
   std::vector<std::size_t> left = leftovers();
-  // One or two strong crossings left (a single crease, maybe strongly curved in the hole): a
-  // looser tangent agreement will do.
-  if (left.size() == 1 || left.size() == 2) {
+  // The creases to a corner may not cross a paired curve: their crossings must all lie on one
+  // side of every pair (couplingdown_sharp #2: a chamfer's pair runs between a corner's
+  // creases).
+  const auto one_side_of_every_pair = [&](const std::vector<std::size_t>& crossings) {
+    for (const Candidate& p : pairs) {
+      const std::size_t a = found[p.a].loop_index;
+      const std::size_t span = (found[p.b].loop_index + n - a) % n;
+      std::size_t inside = 0;
+      for (const std::size_t i : crossings)
+        inside += (found[i].loop_index + n - a) % n < span ? 1 : 0;
+      if (inside != 0 && inside != crossings.size()) return false;
+    }
+    return true;
+  };
+  // One or two strong crossings left (a single crease, maybe strongly curved in the hole), or
+  // more that cannot meet at a corner: a looser tangent agreement will do.
+  if (left.size() == 1 || left.size() == 2 || !one_side_of_every_pair(left)) {
     for (const Candidate& c : candidates) try_pair(c, options.loose_pair_angle_deg * kDeg);
     left = leftovers();
   }
+  const bool corner_side_ok = one_side_of_every_pair(left);
   // Report only the crossings that matter: those the curves use and strong ones left over.
   std::map<std::size_t, std::size_t> kept;  // index in found -> index in plan.crossings
   const auto keep = [&](std::size_t i) {
@@ -612,7 +633,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   }
 
   const std::size_t paired_curves = plan.curves.size();
-  if (left.size() >= 3 &&
+  if (left.size() >= 3 && corner_side_ok &&
       join_at_corner(plan, left, options.corner_tolerance * diameter, options.hermite, tolerance) &&
       !point_in_polygon(polygon, frame.project(*plan.corner))) {
     // The corner must lie inside the hole's projection.

@@ -44,6 +44,12 @@ struct CreaseOptions {
   double loose_pair_angle_deg = 65;  //!< the same for the last two crossings left over
   //! A weaker sharp edge (over this angle) may continue a crease whose other end is sharp.
   double partner_angle_deg = 30;
+  //! A crossing this sharp counts as strong too when its crease stands out cleanly: it goes on
+  //! over at least two sharp edges and every other edge at its boundary vertex bends by at most
+  //! `clean_crease_ratio` of it. A CAD part's 45° chamfers (couplingdown) are clean; a scan's
+  //! lone 46° edge beside a 76° one (the rocker arm) is not.
+  double clean_crease_angle_deg = 40;
+  double clean_crease_ratio = 1.0 / 3.0;
   //! Three or more creases meet at a corner only if their tangent lines pass within this
   //! fraction of the hole diameter of a common point.
   double corner_tolerance = 0.1;
@@ -83,6 +89,8 @@ struct CreaseCrossing {
   Vec3 on_crease{0, 0, 0};
   double dihedral_deg = 0;  //!< at the sharp edge leaving the boundary vertex
   bool convex = false;      //!< the two faces fold away from each other (a ridge)
+  //! The largest bend of the other edges at the boundary vertex (degrees; rim edges excluded).
+  double other_bends_deg = 0;
   std::size_t traced_edges = 0;
 };
 

@@ -326,10 +326,10 @@ TEST(SharpCasesPicked, EveryCreasePickedRetainsACornerCloserThanThePlainFill) {
     EXPECT_LT(every.score.hausdorff_permille, s_plain->hausdorff_permille - 2.0) << name;
     EXPECT_LT(every.score.mean_permille, s_plain->mean_permille - 0.2) << name;
     // couplingdown #1's creases are rings: each picked pair is followed as the arc both of its
-    // creases continue (measured 16.70 / 2.30 per mille against the plain 22.86 / 3.82; as
-    // Hermite curves 23.06 / 4.12).
+    // creases continue (measured 13.17 / 1.19 per mille against the plain 22.86 / 3.82; as
+    // Hermite curves 23.06 / 4.12 with three rings).
     if (name == "couplingdown_sharp" && case_hole == 1) {
-      EXPECT_EQ(every.result.arcs, 3);
+      EXPECT_EQ(every.result.arcs, 4);
     }
     if (name == "fandisk_sharp") {
       ASSERT_TRUE(every.result.corner);
@@ -387,11 +387,12 @@ std::optional<testing::HoleScore> crease_split_score(Mesh& mesh, const Hole& hol
   return testing::score_fill(mesh, r, c, c.holes.at(case_hole));
 }
 
-// couplingdown_sharp #1 cuts across a boss and a bore: its creases are three rings (one turning
-// 290 deg inside the hole). Joined by circular arcs (crease_arc_between), the split fill is
-// closer to the ground truth than the plain fill everywhere the test can see (measured: H 16.70
-// vs 22.86 per mille, mean 2.30 vs 3.82, crease 13.17 vs 20.65; before arcs the detection paired
-// creases of different rings, and the split crossed the mesh).
+// couplingdown_sharp #1 cuts across a boss and a bore: its creases are four rings (one turning
+// 290 deg inside the hole, one a 45 deg chamfer that counts as a crease because it stands out
+// cleanly). Joined by circular arcs (crease_arc_between), the split fill is closer to the ground
+// truth than the plain fill everywhere the test can see (measured: H 13.17 vs 22.86 per mille,
+// mean 1.19 vs 3.82, crease 13.17 vs 20.65; with three rings 16.70 / 2.30; before arcs the
+// detection paired creases of different rings, and the split crossed the mesh).
 TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
   const auto loaded = load_case_mesh("couplingdown_sharp");
   ASSERT_TRUE(loaded);
@@ -402,14 +403,14 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
   std::size_t arcs = 0;
   for (const CreaseCurve& curve : plan.curves) arcs += curve.arc ? 1 : 0;
-  EXPECT_EQ(arcs, 3u) << plan.summary;
+  EXPECT_EQ(arcs, 4u) << plan.summary;
   const auto s_plain = plain_fill_score(c, 1);
   ASSERT_TRUE(s_plain);
   const auto scored = crease_split_score(mesh, hole, holes, c, 1);
   ASSERT_TRUE(scored);
   const testing::HoleScore& s = *scored;
-  EXPECT_LT(s.hausdorff_permille, s_plain->hausdorff_permille - 3.0);
-  EXPECT_LT(s.mean_permille, s_plain->mean_permille - 1.0);
+  EXPECT_LT(s.hausdorff_permille, s_plain->hausdorff_permille - 6.0);
+  EXPECT_LT(s.mean_permille, s_plain->mean_permille - 2.0);
   EXPECT_LT(s.crease_permille, s_plain->crease_permille - 5.0);
 }
 
@@ -417,7 +418,9 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
 // apart, but the rim itself follows that ring for most of the way; only the stretch across the
 // hole is a curve (between the boundary vertices where the ring leaves the rim). The split along
 // it keeps the ring (measured: crease 3.12 against the plain fill's 12.78 per mille; the whole
-// arc laid regions over the surrounding surface and both splits crossed the mesh).
+// arc laid regions over the surrounding surface and both splits crossed the mesh). The outer
+// wall's 45 deg chamfers are clean creases too: with them the fill is closer than every anchor
+// of BASELINE.md (mean 5.98 per mille, MeshLab's 6.70; H 41.65, 82.16 without them).
 TEST(SharpCasesArcs, ARingTheRimFollowsIsCutToItsStretchAcrossTheHole) {
   const auto loaded = load_case_mesh("couplingdown_sml");
   ASSERT_TRUE(loaded);
@@ -426,26 +429,38 @@ TEST(SharpCasesArcs, ARingTheRimFollowsIsCutToItsStretchAcrossTheHole) {
   ASSERT_TRUE(found);
   const Hole& hole = *found;
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
-  ASSERT_EQ(plan.curves.size(), 1u) << plan.summary;
-  ASSERT_TRUE(plan.curves[0].arc);
-  const CreaseArc& arc = *plan.curves[0].arc;
-  EXPECT_LT(arc.angle, std::numbers::pi) << "the whole 315 deg ring was kept";
+  // The bore's ring: the arc between the two 90 deg valley crossings.
+  const CreaseArc* ring = nullptr;
+  for (const CreaseCurve& curve : plan.curves)
+    if (curve.arc && curve.to && !plan.crossings[curve.from].convex &&
+        plan.crossings[curve.from].dihedral_deg > 60)
+      ring = &*curve.arc;
+  ASSERT_TRUE(ring) << plan.summary;
+  EXPECT_LT(ring->angle, std::numbers::pi) << "the whole 315 deg ring was kept";
   // The middle of the curve is across the hole, well off the rim.
-  const Vec3 middle = arc.at(0.5);
+  const Vec3 middle = ring->at(0.5);
   double to_rim = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < hole.loop.size(); ++i)
     to_rim = std::min(to_rim, std::sqrt(segment_segment_distance2(
                                   middle, middle, mesh.point(hole.loop[i]),
                                   mesh.point(hole.loop[(i + 1) % hole.loop.size()]))));
   EXPECT_GT(to_rim, 0.5 * hole.mean_edge_length);
+  std::size_t chamfer_curves = 0;
+  for (const CreaseCurve& curve : plan.curves)
+    chamfer_curves += curve.to && plan.crossings[curve.from].dihedral_deg < 50 &&
+                              plan.crossings[*curve.to].dihedral_deg < 50
+                          ? 1
+                          : 0;
+  EXPECT_GE(chamfer_curves, 1u) << plan.summary;
   const auto s_plain = plain_fill_score(c, 2);
   ASSERT_TRUE(s_plain);
   const auto scored = crease_split_score(mesh, hole, holes, c, 2);
   ASSERT_TRUE(scored);
   const testing::HoleScore& s = *scored;
-  EXPECT_LT(s.crease_permille, s_plain->crease_permille - 5.0);
-  EXPECT_LT(s.hausdorff_permille, s_plain->hausdorff_permille);
-  EXPECT_LT(s.mean_permille, s_plain->mean_permille);
+  EXPECT_LT(s.crease_permille, 7.0) << "plain " << s_plain->crease_permille;
+  EXPECT_LT(s.hausdorff_permille, s_plain->hausdorff_permille - 20.0);
+  EXPECT_LT(s.mean_permille, s_plain->mean_permille - 3.0);
+  EXPECT_LT(s.mean_permille, 6.70);  // BASELINE.md's best anchor (MeshLab)
 }
 
 std::vector<std::string> sharp_cases() {

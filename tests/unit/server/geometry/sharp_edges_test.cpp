@@ -136,6 +136,31 @@ TEST(SharpEdges, HoleAtACornerMeetsAtTheCorner) {
   EXPECT_LT(crease_distance(mesh, r, edges), 1e-9);
 }
 
+// A 45 deg fold across a hole (a chamfer of a CAD part): below the crease angle of 50 deg, but
+// every other edge at the crossings is flat, so the crossings count as strong and are joined;
+// with the clean rule off they are not. (A scan's crossing of that size among other bends is
+// the rocker arm's, SharpCasesPicked.PointsPickedOnTheCreaseRetainItCloserThanThePlainFill.)
+TEST(SharpEdges, CleanFoldBelowTheCreaseAngleIsACrease) {
+  const double slope = std::tan(45.0 * std::numbers::pi / 180.0);
+  const Mesh mesh = build_mesh(testing::grid_with_round_hole([&](double x, double) {
+                      return x > 8 ? (x - 8) * slope : 0.0;
+                    })).mesh;
+  const auto holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 2u);  // the round hole and the grid's border
+  const Hole& hole = holes[0].perimeter < holes[1].perimeter ? holes[0] : holes[1];
+  const HoleCreasePlan plan = plan_hole_creases(mesh, hole);
+  ASSERT_EQ(plan.crossings.size(), 2u) << plan.summary;
+  ASSERT_EQ(plan.curves.size(), 1u) << plan.summary;
+  for (const CreaseCrossing& c : plan.crossings) {
+    EXPECT_NEAR(c.dihedral_deg, 45.0, 1e-6);
+    EXPECT_NEAR(c.other_bends_deg, 0.0, 1e-6);
+    EXPECT_NEAR(c.position[0], 8.0, 1e-12);
+  }
+  CreaseOptions off;
+  off.clean_crease_angle_deg = off.crease_angle_deg;
+  EXPECT_TRUE(plan_hole_creases(mesh, hole, off).curves.empty());
+}
+
 TEST(SharpEdges, SmoothSurfacesHaveNoCreases) {
   const MeshSoup sphere = testing::uv_sphere(1.0, 48, 24);
   const Mesh mesh = build_mesh(testing::remove_faces(sphere, [](const Vec3& c) {
