@@ -548,11 +548,12 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   };
   // One or two strong crossings left (a single crease, maybe strongly curved in the hole), or
   // more that cannot meet at a corner: a looser tangent agreement will do.
-  if (left.size() == 1 || left.size() == 2 || !one_side_of_every_pair(left)) {
+  bool corner_side_ok = one_side_of_every_pair(left);
+  if (left.size() == 1 || left.size() == 2 || !corner_side_ok) {
     for (const Candidate& c : candidates) try_pair(c, options.loose_pair_angle_deg * kDeg);
     left = leftovers();
+    corner_side_ok = one_side_of_every_pair(left);
   }
-  const bool corner_side_ok = one_side_of_every_pair(left);
   // Report only the crossings that matter: those the curves use and strong ones left over.
   std::map<std::size_t, std::size_t> kept;  // index in found -> index in plan.crossings
   const auto keep = [&](std::size_t i) {

@@ -7,16 +7,18 @@
 //! ALGORITHMS.md §3.5, after Ngo & Lee 2011): the crease is in the patch by construction.
 //!
 //! \details Beyond the thesis, whose four points are picked by hand (§4.1). Detection: an edge
-//! whose faces meet at more than `crease_angle_deg` is sharp; from every hole boundary vertex
-//! with a sharp edge the crease polyline is traced away from the hole (straightest sharp
+//! whose faces meet at more than `crease_angle_deg` is sharp (over `clean_crease_angle_deg` when
+//! it stands out from the bends around it, as a CAD part's chamfers do); from every hole boundary
+//! vertex with a sharp edge the crease polyline is traced away from the hole (straightest sharp
 //! continuation) and its tangent at the boundary is fitted by least squares on a quadratic in
 //! arc length, so a curved crease keeps its curvature's first order. A crossing counts when that
 //! tangent, continued into the hole, lies inside the hole's corner at the boundary vertex.
 //! Pairing: two crossings whose tangents agree with the chord between them (each within
 //! `pair_angle_deg`) are joined by the Hermite curve P1 P2 -> P3 P4; three or more crossings left
 //! over meet at the least-squares intersection of their tangent lines (a corner, e.g. a cube
-//! corner cut by the hole); two left over are joined if their tangents are at least
-//! `loose_pair_angle_deg` consistent. Everything not joined is reported.
+//! corner cut by the hole) unless a pair's curve separates them; two left over (or more that
+//! cannot meet) are joined if their tangents are at least `loose_pair_angle_deg` consistent.
+//! Everything not joined is reported.
 //!
 //! Curved creases: the fit also gives each crease's curvature at the rim. Two crossings whose
 //! tangents turn by more than `min_arc_turn_deg` between them are joined by a circular arc when

@@ -151,13 +151,15 @@ const Hole* case_hole_in(const std::vector<Hole>& holes, const testing::HoleCase
   return id ? &holes[*find_hole_by_id(holes, *id)] : nullptr;
 }
 
-//! A case with its holed mesh built and its holes found: where the single-hole tests start.
+//! A case with its holed mesh built, its holes found and the one case hole \p case_hole left:
+//! where the single-hole tests start.
 struct CaseMesh {
   testing::HoleCase c;
   Mesh mesh;
   std::vector<Hole> holes;
+  const Hole* hole = nullptr;
 };
-std::unique_ptr<CaseMesh> load_case_mesh(const std::string& name) {
+std::unique_ptr<CaseMesh> load_case_mesh(const std::string& name, std::size_t case_hole) {
   std::string error;
   auto c = testing::load_case(name, error);
   if (!c) {
@@ -168,6 +170,8 @@ std::unique_ptr<CaseMesh> load_case_mesh(const std::string& name) {
   loaded->c = std::move(*c);
   loaded->mesh = build_mesh(loaded->c.holed).mesh;
   loaded->holes = find_holes(loaded->mesh).holes;
+  loaded->hole = case_hole_in(loaded->holes, loaded->c, case_hole);
+  if (!loaded->hole) return nullptr;
   return loaded;
 }
 
@@ -354,11 +358,9 @@ TEST(HoleCaseQuality, CapsLeftUnderFifteenDegreesAreMendedOnTheFairedPatch) {
   for (const Expected& e :
        {Expected{"rocker-arm_xl", 0, 21.5}, Expected{"couplingdown_sharp", 0, 4.61}}) {
     SCOPED_TRACE(e.name);
-    const auto loaded = load_case_mesh(e.name);
+    const auto loaded = load_case_mesh(e.name, e.case_hole);
     ASSERT_TRUE(loaded);
-    auto& [c, mesh, holes] = *loaded;
-    const Hole* hole = case_hole_in(holes, c, e.case_hole);
-    ASSERT_TRUE(hole);
+    auto& [c, mesh, holes, hole] = *loaded;
     const testing::Snapshot before = testing::take_snapshot(mesh);
     const HoleFillReport r = fill_hole(mesh, *hole, FillOptions{});
     ASSERT_TRUE(r.filled) << r.reason;
@@ -394,11 +396,9 @@ std::optional<testing::HoleScore> crease_split_score(Mesh& mesh, const Hole& hol
 // mean 1.19 vs 3.82, crease 13.17 vs 20.65; with three rings 16.70 / 2.30; before arcs the
 // detection paired creases of different rings, and the split crossed the mesh).
 TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
-  const auto loaded = load_case_mesh("couplingdown_sharp");
+  const auto loaded = load_case_mesh("couplingdown_sharp", 1);
   ASSERT_TRUE(loaded);
-  auto& [c, mesh, holes] = *loaded;
-  const Hole* found = case_hole_in(holes, c, 1);
-  ASSERT_TRUE(found);
+  auto& [c, mesh, holes, found] = *loaded;
   const Hole& hole = *found;
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
   std::size_t arcs = 0;
@@ -422,11 +422,9 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
 // wall's 45 deg chamfers are clean creases too: with them the fill is closer than every anchor
 // of BASELINE.md (mean 5.98 per mille, MeshLab's 6.70; H 41.65, 82.16 without them).
 TEST(SharpCasesArcs, ARingTheRimFollowsIsCutToItsStretchAcrossTheHole) {
-  const auto loaded = load_case_mesh("couplingdown_sml");
+  const auto loaded = load_case_mesh("couplingdown_sml", 2);
   ASSERT_TRUE(loaded);
-  auto& [c, mesh, holes] = *loaded;
-  const Hole* found = case_hole_in(holes, c, 2);
-  ASSERT_TRUE(found);
+  auto& [c, mesh, holes, found] = *loaded;
   const Hole& hole = *found;
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
   // The bore's ring: the arc between the two 90 deg valley crossings.
