@@ -146,6 +146,21 @@ CreaseShape shape_of_crease(const std::vector<Vec3>& polyline, double fit_length
                             polyline.begin() + static_cast<std::ptrdiff_t>(bend.points_used + 1))};
 }
 
+//! Whether \p q continues the crease traced as \p outward (outward[0] on the rim, the crease
+//! beyond it): within a quarter of the shortest of the step, the crease's own last edge and
+//! \p edge_length of where its tangent and curvature, fitted by the rim, carry it (a long rim
+//! edge must not be taken for a continuation by chance).
+bool continues_crease(const std::vector<Vec3>& outward, const Vec3& q, double fit_length,
+                      double edge_length) {
+  if (outward.size() < 2) return false;
+  const CreaseFit fit = fit_crease(outward, kCurvatureFitShare * fit_length, 3);
+  const Vec3& p = outward[0];
+  const double s = (q - p).norm();
+  const Vec3 predicted = p - s * fit.tangent + 0.5 * s * s * fit.curvature;
+  const double own_edge = (outward[1] - outward[0]).norm();
+  return (q - predicted).norm() <= 0.25 * std::min({s, own_edge, edge_length});
+}
+
 //! The angle at which direction \p d leaves the boundary vertex \p b, counter-clockwise from
 //! the next boundary edge, and the hole's corner angle there, both in the tangent plane of the
 //! surface at b (normal \p normal): a global projection distorts the angles at a cube corner.
@@ -343,18 +358,59 @@ std::optional<CreaseShape> crease_shape_towards(const Mesh& mesh, VertexHandle a
   std::optional<CreaseShape> best;
   double best_distance2 = tolerance * tolerance;
   FaceNormals normals(mesh, 64);
-  for (const HalfedgeHandle h : mesh.voh_range(at)) {
-    if (!is_sharp(normals, h, angle_deg)) continue;
-    const std::vector<Vec3> polyline = trace_crease(normals, h, angle_deg, budget);
-    double distance2 = std::numeric_limits<double>::infinity();
+  const auto distance2_to_pick = [&](const std::vector<Vec3>& polyline) {
+    double d2 = std::numeric_limits<double>::infinity();
     for (std::size_t i = 1; i < polyline.size(); ++i)
-      distance2 =
-          std::min(distance2, segment_segment_distance2(polyline[i - 1], polyline[i], pick, pick));
-    if (!(distance2 <= best_distance2)) continue;
-    CreaseShape shape = shape_of_crease(polyline, fit_length);  // as plan_hole_creases does
-    if (!(shape.tangent.norm() > 0)) continue;
-    best_distance2 = distance2;
-    best = std::move(shape);
+      d2 = std::min(d2, segment_segment_distance2(polyline[i - 1], polyline[i], pick, pick));
+    return d2;
+  };
+  // The creases leaving \p v, each prefixed by \p rim (the rim vertices from `at` up to v).
+  const auto try_creases_from = [&](VertexHandle v, const std::vector<Vec3>& rim) {
+    for (const HalfedgeHandle h : mesh.voh_range(v)) {
+      if (!is_sharp(normals, h, angle_deg)) continue;
+      std::vector<Vec3> polyline = trace_crease(normals, h, angle_deg, budget);
+      const double distance2 = distance2_to_pick(polyline);
+      if (!(distance2 <= best_distance2)) continue;
+      if (rim.size() > 1) {
+        // The crease reaches the rim at v and follows it back to `at`: each rim vertex must
+        // continue it, as plan_hole_creases walks the rim.
+        polyline.insert(polyline.begin(), rim.begin(), rim.end() - 1);
+        bool follows = true;
+        for (std::size_t k = rim.size() - 1; k-- > 0 && follows;)
+          follows = continues_crease(
+              {polyline.begin() + static_cast<std::ptrdiff_t>(k) + 1, polyline.end()}, polyline[k],
+              fit_length, std::numeric_limits<double>::infinity());
+        if (!follows) continue;
+      }
+      CreaseShape shape = shape_of_crease(polyline, fit_length);  // as plan_hole_creases does
+      if (!(shape.tangent.norm() > 0)) continue;
+      shape.rim_run = rim.size() - 1;
+      best_distance2 = distance2;
+      best = std::move(shape);
+    }
+  };
+  try_creases_from(at, {origin});
+  if (best || !mesh.is_boundary(at)) return best;
+  // No crease leaves `at` towards the pick: one may reach the rim nearby and run along it to
+  // `at`, where it leaves the rim into the hole (a ring along the rim). Walk the boundary both
+  // ways, as far as the pick.
+  HalfedgeHandle out;
+  for (const HalfedgeHandle h : mesh.voh_range(at))
+    if (mesh.is_boundary(h)) out = h;
+  if (!out.is_valid()) return best;
+  for (const bool forward : {true, false}) {
+    std::vector<Vec3> rim{origin};
+    HalfedgeHandle h = forward ? out : mesh.prev_halfedge_handle(out);
+    double walked = 0;
+    for (int steps = 0; steps < 64 && walked < budget; ++steps) {
+      const VertexHandle v = forward ? mesh.to_vertex_handle(h) : mesh.from_vertex_handle(h);
+      if (v == at) break;
+      walked += (mesh.point(v) - rim.back()).norm();
+      rim.push_back(mesh.point(v));
+      try_creases_from(v, rim);
+      if (best) return best;
+      h = forward ? mesh.next_halfedge_handle(h) : mesh.prev_halfedge_handle(h);
+    }
   }
   return best;
 }
@@ -419,6 +475,81 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   const double weak_angle = options.partner_angle_deg;
   FaceNormals normals(mesh, 16 * n);  // the faces around the boundary and along the creases
   std::vector<CreaseCrossing> found;
+  // The crossing where the crease traced as \p polyline (points[0] the rim vertex at loop index
+  // \p i) enters the hole, or none when it does not head strictly into the hole there.
+  const auto crossing_from = [&](std::size_t i, const std::vector<Vec3>& polyline,
+                                 HalfedgeHandle h) -> std::optional<CreaseCrossing> {
+    const VertexHandle b = hole.loop[i];
+    const VertexHandle prev = hole.loop[(i + n - 1) % n];
+    const VertexHandle next = hole.loop[(i + 1) % n];
+    CreaseShape shape = shape_of_crease(polyline, fit_length);
+    if (!(shape.tangent.norm() > 0)) return std::nullopt;
+    const Vec3 inward = -shape.tangent;
+    const auto [phi, corner] = wedge_angles(vertex_normal(normals, b), mesh.point(prev),
+                                            mesh.point(b), mesh.point(next), inward);
+    // Strictly inside the hole's corner at b (a crease along the boundary is not a crossing).
+    if (!(std::min(phi, corner - phi) > 0.0)) return std::nullopt;
+    CreaseCrossing c;
+    c.loop_index = i;
+    c.vertex = b;
+    c.position = mesh.point(b);
+    c.inward = inward;
+    c.curvature = shape.curvature;
+    c.near_rim = std::move(shape.near_rim);
+    c.far_point = c.position - fit_length * inward;
+    c.on_crease = polyline.back();
+    double walked = 0;
+    for (std::size_t k = 1; k < polyline.size(); ++k) {
+      const double step = (polyline[k] - polyline[k - 1]).norm();
+      if (walked + step >= fit_length) {
+        c.on_crease =
+            polyline[k - 1] + (fit_length - walked) / step * (polyline[k] - polyline[k - 1]);
+        break;
+      }
+      walked += step;
+    }
+    const VertexHandle from = mesh.from_vertex_handle(h);
+    c.dihedral_deg = dihedral_deg(normals, h);
+    for (const HalfedgeHandle o : mesh.voh_range(from))
+      if (o != h && !mesh.is_boundary(mesh.edge_handle(o)))
+        c.other_bends_deg = std::max(c.other_bends_deg, dihedral_deg(normals, o));
+    // Convex (a ridge) when the face on one side sees the other side's far vertex below it.
+    const FaceHandle f0 = mesh.face_handle(h);
+    const VertexHandle across =
+        mesh.to_vertex_handle(mesh.next_halfedge_handle(mesh.opposite_halfedge_handle(h)));
+    c.convex = OpenMesh::dot(normals(f0), mesh.point(across) - mesh.point(from)) < 0;
+    c.traced_edges = polyline.size() - 1;
+    return c;
+  };
+  // The rim vertices after loop index \p i (in the direction \p step) that lie on the
+  // continuation of the crease traced as \p polyline, in order: a curved crease is predicted
+  // from its tangent and curvature fitted by the rim.
+  const auto rim_run_along = [&](std::size_t i, const std::vector<Vec3>& polyline,
+                                 std::size_t step) {
+    std::vector<Vec3> along{polyline.rbegin(), polyline.rend()};  // towards the rim
+    std::size_t j = i;
+    for (std::size_t walked = 0; walked + 2 < n; ++walked) {
+      const std::size_t k = (j + step) % n;
+      const Vec3 q = mesh.point(hole.loop[k]);
+      if (!continues_crease({along.rbegin(), along.rend()}, q, fit_length, hole.mean_edge_length))
+        break;
+      along.push_back(q);
+      j = k;
+    }
+    return std::pair{j, std::vector<Vec3>(along.rbegin(), along.rend())};
+  };
+  // Whether the crease traced as \p polyline (points[0] at loop index \p j) goes on as a sharp
+  // edge of the mesh at j: a crease that runs along the rim and then leaves it outwards (the
+  // fitted continuation of a curved one may still point a little into the hole).
+  const auto continues_outside = [&](std::size_t j, const std::vector<Vec3>& polyline) {
+    const Vec3 ahead = -fit_crease(polyline, kCurvatureFitShare * fit_length, 3).tangent;
+    for (const HalfedgeHandle o : mesh.voh_range(hole.loop[j])) {
+      if (!is_sharp(normals, o, weak_angle)) continue;
+      const Vec3 d = (mesh.point(mesh.to_vertex_handle(o)) - polyline[0]).normalize_cond();
+      if (OpenMesh::dot(d, ahead) > std::cos(45.0 * kDeg)) return true;
+    }
+    return false;
+  };
   for (std::size_t i = 0; i < n; ++i) {
     const VertexHandle b = hole.loop[i];
     const VertexHandle prev = hole.loop[(i + n - 1) % n];
@@ -427,43 +558,25 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       const VertexHandle w = mesh.to_vertex_handle(h);
       if (w == prev || w == next || !is_sharp(normals, h, weak_angle)) continue;
       const std::vector<Vec3> polyline = trace_crease(normals, h, weak_angle, 4.0 * fit_length);
-      CreaseShape shape = shape_of_crease(polyline, fit_length);
-      if (!(shape.tangent.norm() > 0)) continue;
-      const Vec3 inward = -shape.tangent;
-      const auto [phi, corner] = wedge_angles(vertex_normal(normals, b), mesh.point(prev),
-                                              mesh.point(b), mesh.point(next), inward);
-      // Strictly inside the hole's corner at b (a crease along the boundary is not a crossing).
-      if (!(std::min(phi, corner - phi) > 0.0)) continue;
-      CreaseCrossing c;
-      c.loop_index = i;
-      c.vertex = b;
-      c.position = mesh.point(b);
-      c.inward = inward;
-      c.curvature = shape.curvature;
-      c.near_rim = std::move(shape.near_rim);
-      c.far_point = c.position - fit_length * inward;
-      c.on_crease = polyline.back();
-      double walked = 0;
-      for (std::size_t k = 1; k < polyline.size(); ++k) {
-        const double step = (polyline[k] - polyline[k - 1]).norm();
-        if (walked + step >= fit_length) {
-          c.on_crease =
-              polyline[k - 1] + (fit_length - walked) / step * (polyline[k] - polyline[k - 1]);
-          break;
-        }
-        walked += step;
+      // A crease that does not head into the hole where it meets the rim may run along the rim
+      // and cross later, at a vertex with no sharp edge of its own (couplingdown_sharp #1: the
+      // boss-top ring follows rim edge 7-8 and crosses the hole from 8): follow the rim while
+      // its vertices lie on the crease's continuation; where the rim turns away the crease
+      // crosses, unless it goes on outside the hole as a sharp edge there (couplingdown_sml #2:
+      // a chamfer ring along rim vertices 0, 48, 47).
+      if (auto c = crossing_from(i, polyline, h)) {
+        found.push_back(std::move(*c));
+        continue;
       }
-      c.dihedral_deg = dihedral_deg(normals, h);
-      for (const HalfedgeHandle o : mesh.voh_range(b))
-        if (o != h && !mesh.is_boundary(mesh.edge_handle(o)))
-          c.other_bends_deg = std::max(c.other_bends_deg, dihedral_deg(normals, o));
-      // Convex (a ridge) when the face on one side sees the other side's far vertex below it.
-      const FaceHandle f0 = mesh.face_handle(h);
-      const VertexHandle across =
-          mesh.to_vertex_handle(mesh.next_halfedge_handle(mesh.opposite_halfedge_handle(h)));
-      c.convex = OpenMesh::dot(normals(f0), mesh.point(across) - c.position) < 0;
-      c.traced_edges = polyline.size() - 1;
-      found.push_back(c);
+      for (const std::size_t step : {std::size_t{1}, n - 1}) {
+        const auto [j, extended] = rim_run_along(i, polyline, step);
+        if (j == i) continue;
+        if (continues_outside(j, extended)) continue;
+        if (auto c = crossing_from(j, extended, h)) {
+          c->rim_run = std::min((j + n - i) % n, (i + n - j) % n);
+          found.push_back(std::move(*c));
+        }
+      }
     }
   }
 
@@ -494,25 +607,64 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       Candidate c{std::max(angle_between(ca.inward, chord), angle_between(cb.inward, -chord)), a, b,
                   std::nullopt};
       // A curved crease: the arc both creases bend along, if it agrees better than the chord.
+      // A crease that followed the rim pairs only along an arc (below), of any turn the
+      // curvature check accepts (couplingdown_sharp #1's boss-top ring crosses by 56°).
+      const bool followed_rim = ca.rim_run > 0 || cb.rim_run > 0;
+      const double min_turn =
+          followed_rim ? options.rim_run_min_arc_turn_deg : options.min_arc_turn_deg;
       double arc_score = 0;
-      if (auto arc =
-              crease_arc_between(ca, cb, options.min_arc_turn_deg, options.loose_pair_angle_deg,
-                                 options.arc_curvature_factor, &arc_score);
+      if (auto arc = crease_arc_between(ca, cb, min_turn, options.loose_pair_angle_deg,
+                                        options.arc_curvature_factor, &arc_score);
           arc && arc_score < c.score) {
         c.score = arc_score;
         c.arc = arc;
       }
+      // A crease that followed the rim pairs only along an arc: a ring (a boss's or a bore's
+      // edge) that runs along the rim and then cuts across, which the plain fill cannot follow.
+      // A straight crease that leaves the rim crosses a notch to the opposite rim, where the
+      // plain fill's rim-to-rim edge already lies on it (fandisk_sml #1); its fitted tangents
+      // only add noise there.
+      if (followed_rim && !c.arc) continue;
       candidates.push_back(c);
     }
   std::sort(candidates.begin(), candidates.end(),
             [](const Candidate& x, const Candidate& y) { return x.score < y.score; });
   std::set<std::size_t> used_vertices;
   std::vector<Candidate> pairs;
+  // A pair's path across the hole: its arc, or the chord its Hermite curve follows closely.
+  const auto pair_path = [&](const Candidate& c) {
+    std::vector<Vec3> path;
+    if (c.arc) {
+      for (int k = 0; k <= 16; ++k) path.push_back(c.arc->at(k / 16.0));
+    } else {
+      path = {found[c.a].position, found[c.b].position};
+    }
+    return path;
+  };
+  // Two curves that touch inside the hole cannot both be creases of one surface: the split
+  // would make a non-manifold seam (couplingdown_sml #2: a ring found along the rim meets the
+  // arc of two short chamfer creases near its middle). Ends on the rim are not compared.
+  const auto pair_paths_meet = [&](const Candidate& x, const Candidate& y) {
+    const std::vector<Vec3> a = pair_path(x), b = pair_path(y);
+    const double near = 0.25 * hole.mean_edge_length;
+    const auto inside = [&](const Vec3& p, const Candidate& c) {
+      return (p - found[c.a].position).norm() > near && (p - found[c.b].position).norm() > near;
+    };
+    for (std::size_t i = 0; i + 1 < a.size(); ++i)
+      for (std::size_t j = 0; j + 1 < b.size(); ++j) {
+        if (segment_segment_distance2(a[i], a[i + 1], b[j], b[j + 1]) > near * near) continue;
+        if (inside(a[i], x) || inside(a[i + 1], x) || inside(b[j], y) || inside(b[j + 1], y))
+          return true;
+      }
+    return false;
+  };
   auto try_pair = [&](const Candidate& c, double limit) {
     const std::size_t la = found[c.a].loop_index, lb = found[c.b].loop_index;
     if (used_vertices.count(la) || used_vertices.count(lb) || c.score > limit) return;
     for (const Candidate& p : pairs)
-      if (interleaved(la, lb, found[p.a].loop_index, found[p.b].loop_index)) return;
+      if (interleaved(la, lb, found[p.a].loop_index, found[p.b].loop_index) ||
+          pair_paths_meet(c, p))
+        return;
     used_vertices.insert(la);
     used_vertices.insert(lb);
     pairs.push_back(c);

@@ -26,6 +26,16 @@
 //! centre): the rim of a bore or a boss that the hole cuts across, which may turn by far more
 //! than the half turn a cubic Hermite curve can follow (couplingdown_sharp #1: a bore's rim
 //! turning 286° inside the hole).
+//!
+//! Creases along the rim: a crease whose tangent does not enter the hole where it meets the rim
+//! may follow rim edges and cross the hole from a later boundary vertex, which has no sharp edge
+//! of its own (a boss's top edge the hole cuts short). The rim is followed while each next
+//! boundary vertex lies on the crease's continuation (tangent and curvature fitted by the rim,
+//! within a quarter edge); where the rim turns away the crease crosses, unless it goes on
+//! outside the hole there. Such a crossing pairs only along an arc (of at least
+//! `rim_run_min_arc_turn_deg`): a straight crease that leaves the rim crosses a notch, which the
+//! plain fill spans on the crease already. Of two pairs whose curves meet inside the hole only
+//! the better is joined: the split along both would not be manifold.
 
 #include <array>
 #include <optional>
@@ -60,6 +70,9 @@ struct CreaseOptions {
   //! A pair whose tangents turn by at least this between the crossings may be joined by a
   //! circular arc (below it the straight pairing above decides, and a Hermite curve joins).
   double min_arc_turn_deg = 60;
+  //! The same for a pair with a crossing whose crease ran along the rim first: such a pair is
+  //! joined only by an arc (a straight crease crossing a notch of the rim is left to the fill).
+  double rim_run_min_arc_turn_deg = 30;
   //! An arc joins two crossings only if the curvature fitted to each crease is within this
   //! factor of the arc's either way (and bends towards the arc's centre): the fit over a few
   //! edges of a scanned or coarsely meshed rim is rough, but a straight crease (no curvature)
@@ -94,6 +107,8 @@ struct CreaseCrossing {
   //! The largest bend of the other edges at the boundary vertex (degrees; rim edges excluded).
   double other_bends_deg = 0;
   std::size_t traced_edges = 0;
+  //! Rim edges the crease runs along before it crosses (0: it crosses where it meets the rim).
+  std::size_t rim_run = 0;
 };
 
 //! A circular arc from `start` turning by `angle` radians: centre + cos φ·(start − centre) +
@@ -159,7 +174,9 @@ bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings
 //! passes within \p tolerance of \p pick. Its tangent at \p at, fitted over \p fit_length of
 //! arc length as the automatic plan fits it (pointing along the crease towards the pick), is a
 //! truer direction than the chord to the pick: seed 000 §5 found that one pick on a badly
-//! oriented triangle biases the whole curve. None when no such crease leads to the pick.
+//! oriented triangle biases the whole curve. When no crease leaves \p at towards the pick, one
+//! that reaches the rim nearby and runs along it to \p at (each rim vertex on its continuation,
+//! as plan_hole_creases follows the rim) is taken. None when no such crease leads to the pick.
 std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
                                            double angle_deg, double tolerance, double fit_length);
 
@@ -170,6 +187,8 @@ struct CreaseShape {
   Vec3 tangent{0, 0, 0};       //!< unit, from the rim along the crease towards the pick
   Vec3 curvature{0, 0, 0};     //!< κ·N at the rim
   std::vector<Vec3> near_rim;  //!< the crease's first points from the rim (rim first)
+  //! Rim edges the crease runs along before it reaches the vertex (0: it leaves it directly).
+  std::size_t rim_run = 0;
 };
 std::optional<CreaseShape> crease_shape_towards(const Mesh& mesh, VertexHandle at, const Vec3& pick,
                                                 double angle_deg, double tolerance,

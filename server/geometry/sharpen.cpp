@@ -124,13 +124,15 @@ std::optional<CreaseArc> picked_crease_arc(const Mesh& mesh, const Hole& hole, s
     c.inward = -shape->tangent;
     c.curvature = shape->curvature;
     c.near_rim = shape->near_rim;
+    c.rim_run = shape->rim_run;
     return c;
   };
   const auto a = crossing(from, pick_from);
   const auto b = crossing(to, pick_to);
   if (!a || !b) return std::nullopt;
-  return crease_arc_between(*a, *b, plan.min_arc_turn_deg, plan.loose_pair_angle_deg,
-                            plan.arc_curvature_factor);
+  const double min_turn =
+      a->rim_run > 0 || b->rim_run > 0 ? plan.rim_run_min_arc_turn_deg : plan.min_arc_turn_deg;
+  return crease_arc_between(*a, *b, min_turn, plan.loose_pair_angle_deg, plan.arc_curvature_factor);
 }
 
 //! take_crease_tangents on the rim of \p hole (loop indices of P2's and P3's vertices); the

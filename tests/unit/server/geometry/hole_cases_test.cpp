@@ -330,10 +330,13 @@ TEST(SharpCasesPicked, EveryCreasePickedRetainsACornerCloserThanThePlainFill) {
     EXPECT_LT(every.score.hausdorff_permille, s_plain->hausdorff_permille - 2.0) << name;
     EXPECT_LT(every.score.mean_permille, s_plain->mean_permille - 0.2) << name;
     // couplingdown #1's creases are rings: each picked pair is followed as the arc both of its
-    // creases continue (measured 13.17 / 1.19 per mille against the plain 22.86 / 3.82; as
-    // Hermite curves 23.06 / 4.12 with three rings).
+    // creases continue, the boss-top ring too, whose picked rim vertices have no crease of their
+    // own (the ring runs along the rim to them; measured 6.97 / 0.59, crease 0.51 per mille,
+    // against the plain 22.86 / 3.82 / 20.65; as Hermite curves 23.06 / 4.12 with three rings).
     if (name == "couplingdown_sharp" && case_hole == 1) {
-      EXPECT_EQ(every.result.arcs, 4);
+      EXPECT_EQ(every.result.arcs, 6);
+      EXPECT_EQ(every.result.crease_tangents_taken, 12);
+      EXPECT_LE(every.score.crease_permille, 3.0);
     }
     if (name == "fandisk_sharp") {
       ASSERT_TRUE(every.result.corner);
@@ -389,12 +392,16 @@ std::optional<testing::HoleScore> crease_split_score(Mesh& mesh, const Hole& hol
   return testing::score_fill(mesh, r, c, c.holes.at(case_hole));
 }
 
-// couplingdown_sharp #1 cuts across a boss and a bore: its creases are four rings (one turning
-// 290 deg inside the hole, one a 45 deg chamfer that counts as a crease because it stands out
-// cleanly). Joined by circular arcs (crease_arc_between), the split fill is closer to the ground
-// truth than the plain fill everywhere the test can see (measured: H 13.17 vs 22.86 per mille,
-// mean 1.19 vs 3.82, crease 13.17 vs 20.65; with three rings 16.70 / 2.30; before arcs the
-// detection paired creases of different rings, and the split crossed the mesh).
+// couplingdown_sharp #1 cuts across a boss and a bore: its creases are six rings (one turning
+// 290 deg inside the hole, both edges of a 45 deg chamfer, which count as creases because they
+// stand out cleanly, and the boss's top edge; the chamfer's upper edge and the boss's top edge
+// run along the rim for an edge before they cross the hole: no sharp edge leaves the rim where
+// they cross, plan_hole_creases follows the rim to find them). Joined by circular arcs
+// (crease_arc_between), the split fill is closer to the ground truth than the plain fill everywhere
+// the test can see, and every crease is retained within 3 per mille (measured: H 6.97 vs 22.86 per
+// mille, mean 0.59 vs 3.82, crease 0.51 vs 20.65; without the boss-top ring 13.17 / 1.19 / 13.17;
+// with three rings 16.70 / 2.30; before arcs the detection paired creases of different rings, and
+// the split crossed the mesh).
 TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
   const auto loaded = load_case_mesh("couplingdown_sharp", 1);
   ASSERT_TRUE(loaded);
@@ -403,7 +410,15 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
   std::size_t arcs = 0;
   for (const CreaseCurve& curve : plan.curves) arcs += curve.arc ? 1 : 0;
-  EXPECT_EQ(arcs, 4u) << plan.summary;
+  EXPECT_EQ(arcs, 6u) << plan.summary;
+  // The boss-top ring and the chamfer's upper edge: both crossings of each found by following
+  // the rim (one edge each).
+  std::size_t along_rim = 0;
+  for (const CreaseCurve& curve : plan.curves)
+    if (curve.arc && curve.to && plan.crossings[curve.from].rim_run == 1 &&
+        plan.crossings[*curve.to].rim_run == 1)
+      ++along_rim;
+  EXPECT_EQ(along_rim, 2u) << plan.summary;
   const auto s_plain = plain_fill_score(c, 1);
   ASSERT_TRUE(s_plain);
   const auto scored = crease_split_score(mesh, hole, holes, c, 1);
@@ -411,7 +426,7 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
   const testing::HoleScore& s = *scored;
   EXPECT_LT(s.hausdorff_permille, s_plain->hausdorff_permille - 6.0);
   EXPECT_LT(s.mean_permille, s_plain->mean_permille - 2.0);
-  EXPECT_LT(s.crease_permille, s_plain->crease_permille - 5.0);
+  EXPECT_LE(s.crease_permille, 3.0) << "plain " << s_plain->crease_permille;
 }
 
 // couplingdown_sml #2: the bottom ring of a bore meets the hole at two crossings a 315 deg arc
@@ -420,7 +435,10 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
 // it keeps the ring (measured: crease 3.12 against the plain fill's 12.78 per mille; the whole
 // arc laid regions over the surrounding surface and both splits crossed the mesh). The outer
 // wall's 45 deg chamfers are clean creases too: with them the fill is closer than every anchor
-// of BASELINE.md (mean 5.98 per mille, MeshLab's 6.70; H 41.65, 82.16 without them).
+// of BASELINE.md (mean 4.89 per mille, MeshLab's 6.70; H 25.49, 82.16 without them). One
+// chamfer ring runs along the rim before it crosses; its arc meets the arc of two short chamfer
+// creases near the middle, and of two curves that meet the planner keeps the better (with both
+// the split is non-manifold and the plain fill's 10.75 per mille stood).
 TEST(SharpCasesArcs, ARingTheRimFollowsIsCutToItsStretchAcrossTheHole) {
   const auto loaded = load_case_mesh("couplingdown_sml", 2);
   ASSERT_TRUE(loaded);
