@@ -282,6 +282,12 @@ Vec3 CreaseArc::at(double t) const {
   return centre + std::cos(phi) * (start - centre) + std::sin(phi) * radius * start_direction;
 }
 
+double min_arc_turn_deg(const CreaseOptions& options, const CreaseCrossing& a,
+                        const CreaseCrossing& b) {
+  return a.rim_run > 0 || b.rim_run > 0 ? options.rim_run_min_arc_turn_deg
+                                        : options.min_arc_turn_deg;
+}
+
 std::optional<CreaseArc> crease_arc_between(const CreaseCrossing& a, const CreaseCrossing& b,
                                             double min_turn_deg, double max_angle_deg,
                                             double curvature_factor, double* score) {
@@ -521,22 +527,26 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     c.traced_edges = polyline.size() - 1;
     return c;
   };
-  // The rim vertices after loop index \p i (in the direction \p step) that lie on the
-  // continuation of the crease traced as \p polyline, in order: a curved crease is predicted
-  // from its tangent and curvature fitted by the rim.
+  // The crease traced as \p polyline (points[0] at loop index \p i) extended by the rim
+  // vertices after i (in the direction \p step) that lie on its continuation, each predicted
+  // from the tangent and curvature fitted by the rim: the loop index where the run ends, the
+  // rim edges it took and the extended polyline (its rim end first).
+  struct RimRun {
+    std::size_t end, edges;
+    std::vector<Vec3> polyline;
+  };
   const auto rim_run_along = [&](std::size_t i, const std::vector<Vec3>& polyline,
                                  std::size_t step) {
-    std::vector<Vec3> along{polyline.rbegin(), polyline.rend()};  // towards the rim
-    std::size_t j = i;
-    for (std::size_t walked = 0; walked + 2 < n; ++walked) {
-      const std::size_t k = (j + step) % n;
+    RimRun run{i, 0, polyline};
+    while (run.edges + 2 < n) {
+      const std::size_t k = (run.end + step) % n;
       const Vec3 q = mesh.point(hole.loop[k]);
-      if (!continues_crease({along.rbegin(), along.rend()}, q, fit_length, hole.mean_edge_length))
-        break;
-      along.push_back(q);
-      j = k;
+      if (!continues_crease(run.polyline, q, fit_length, hole.mean_edge_length)) break;
+      run.polyline.insert(run.polyline.begin(), q);
+      run.end = k;
+      ++run.edges;
     }
-    return std::pair{j, std::vector<Vec3>(along.rbegin(), along.rend())};
+    return run;
   };
   // Whether the crease traced as \p polyline (points[0] at loop index \p j) goes on as a sharp
   // edge of the mesh at j: a crease that runs along the rim and then leaves it outwards (the
@@ -569,11 +579,10 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
         continue;
       }
       for (const std::size_t step : {std::size_t{1}, n - 1}) {
-        const auto [j, extended] = rim_run_along(i, polyline, step);
-        if (j == i) continue;
-        if (continues_outside(j, extended)) continue;
-        if (auto c = crossing_from(j, extended, h)) {
-          c->rim_run = std::min((j + n - i) % n, (i + n - j) % n);
+        const RimRun run = rim_run_along(i, polyline, step);
+        if (run.edges == 0 || continues_outside(run.end, run.polyline)) continue;
+        if (auto c = crossing_from(run.end, run.polyline, h)) {
+          c->rim_run = run.edges;
           found.push_back(std::move(*c));
         }
       }
@@ -594,6 +603,9 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     double score;
     std::size_t a, b;
     std::optional<CreaseArc> arc;  //!< set when the pair is joined by an arc, not a line
+    //! The pair's path across the hole: its arc sampled, or the chord its Hermite curve follows
+    //! closely.
+    std::vector<Vec3> path;
   };
   std::vector<Candidate> candidates;
   for (std::size_t a = 0; a < m; ++a)
@@ -604,17 +616,18 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       if (ca.loop_index == cb.loop_index || !(chord.norm() > 0) || ca.convex != cb.convex ||
           !(strong(a) || strong(b)))
         continue;
-      Candidate c{std::max(angle_between(ca.inward, chord), angle_between(cb.inward, -chord)), a, b,
-                  std::nullopt};
+      Candidate c{std::max(angle_between(ca.inward, chord), angle_between(cb.inward, -chord)),
+                  a,
+                  b,
+                  std::nullopt,
+                  {}};
       // A curved crease: the arc both creases bend along, if it agrees better than the chord.
-      // A crease that followed the rim pairs only along an arc (below), of any turn the
-      // curvature check accepts (couplingdown_sharp #1's boss-top ring crosses by 56°).
-      const bool followed_rim = ca.rim_run > 0 || cb.rim_run > 0;
-      const double min_turn =
-          followed_rim ? options.rim_run_min_arc_turn_deg : options.min_arc_turn_deg;
+      // A crease that followed the rim pairs only along an arc (below), from a smaller turn on
+      // (min_arc_turn_deg; couplingdown_sharp #1's boss-top ring crosses by 56°).
       double arc_score = 0;
-      if (auto arc = crease_arc_between(ca, cb, min_turn, options.loose_pair_angle_deg,
-                                        options.arc_curvature_factor, &arc_score);
+      if (auto arc = crease_arc_between(ca, cb, min_arc_turn_deg(options, ca, cb),
+                                        options.loose_pair_angle_deg, options.arc_curvature_factor,
+                                        &arc_score);
           arc && arc_score < c.score) {
         c.score = arc_score;
         c.arc = arc;
@@ -624,28 +637,24 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       // A straight crease that leaves the rim crosses a notch to the opposite rim, where the
       // plain fill's rim-to-rim edge already lies on it (fandisk_sml #1); its fitted tangents
       // only add noise there.
-      if (followed_rim && !c.arc) continue;
-      candidates.push_back(c);
+      if ((ca.rim_run > 0 || cb.rim_run > 0) && !c.arc) continue;
+      if (c.arc) {
+        for (int k = 0; k <= 16; ++k) c.path.push_back(c.arc->at(k / 16.0));
+      } else {
+        c.path = {ca.position, cb.position};
+      }
+      candidates.push_back(std::move(c));
     }
   std::sort(candidates.begin(), candidates.end(),
             [](const Candidate& x, const Candidate& y) { return x.score < y.score; });
   std::set<std::size_t> used_vertices;
   std::vector<Candidate> pairs;
-  // A pair's path across the hole: its arc, or the chord its Hermite curve follows closely.
-  const auto pair_path = [&](const Candidate& c) {
-    std::vector<Vec3> path;
-    if (c.arc) {
-      for (int k = 0; k <= 16; ++k) path.push_back(c.arc->at(k / 16.0));
-    } else {
-      path = {found[c.a].position, found[c.b].position};
-    }
-    return path;
-  };
   // Two curves that touch inside the hole cannot both be creases of one surface: the split
   // would make a non-manifold seam (couplingdown_sml #2: a ring found along the rim meets the
   // arc of two short chamfer creases near its middle). Ends on the rim are not compared.
   const auto pair_paths_meet = [&](const Candidate& x, const Candidate& y) {
-    const std::vector<Vec3> a = pair_path(x), b = pair_path(y);
+    const std::vector<Vec3>& a = x.path;
+    const std::vector<Vec3>& b = y.path;
     const double near = 0.25 * hole.mean_edge_length;
     const auto inside = [&](const Vec3& p, const Candidate& c) {
       return (p - found[c.a].position).norm() > near && (p - found[c.b].position).norm() > near;

@@ -134,6 +134,12 @@ std::optional<CreaseArc> crease_arc_between(const CreaseCrossing& a, const Creas
                                             double min_turn_deg, double max_angle_deg,
                                             double curvature_factor, double* score = nullptr);
 
+//! The least turn for which crossings \p a and \p b may be joined by an arc: `min_arc_turn_deg`,
+//! or `rim_run_min_arc_turn_deg` when either crease ran along the rim first (the automatic plan
+//! and picked points alike).
+double min_arc_turn_deg(const CreaseOptions& options, const CreaseCrossing& a,
+                        const CreaseCrossing& b);
+
 //! One feature curve through the hole: between two crossings, or from a crossing to the corner.
 struct CreaseCurve {
   std::size_t from = 0;           //!< crossing index

@@ -130,9 +130,8 @@ std::optional<CreaseArc> picked_crease_arc(const Mesh& mesh, const Hole& hole, s
   const auto a = crossing(from, pick_from);
   const auto b = crossing(to, pick_to);
   if (!a || !b) return std::nullopt;
-  const double min_turn =
-      a->rim_run > 0 || b->rim_run > 0 ? plan.rim_run_min_arc_turn_deg : plan.min_arc_turn_deg;
-  return crease_arc_between(*a, *b, min_turn, plan.loose_pair_angle_deg, plan.arc_curvature_factor);
+  return crease_arc_between(*a, *b, min_arc_turn_deg(plan, *a, *b), plan.loose_pair_angle_deg,
+                            plan.arc_curvature_factor);
 }
 
 //! take_crease_tangents on the rim of \p hole (loop indices of P2's and P3's vertices); the
