@@ -712,10 +712,18 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     }
     mend_regions(quality);
   };
+  // The chords a split along crease curves leaves across a single rim vertex (patch_quality.h).
+  const auto flip_slivers = [&] {
+    if (!options.improve_quality) return;
+    const auto t0 = Clock::now();
+    report.flips += flip_rim_slivers(mesh, faces);
+    report.phases.mend += seconds_since(t0);
+  };
   report.shape = PatchShape::Flat;
   if (!fair) {
     mend(/*keep_surface=*/true);
     gather();
+    flip_slivers();
     return {};
   }
   // Each region's free vertices are those whose faces all lie in it: the new vertices inside
@@ -829,6 +837,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
       mend_regions(rescue);
     }
     gather();
+    flip_slivers();
   }
   report.shape = PatchShape::Fair;
   return {};

@@ -618,6 +618,54 @@ double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces) {
   return faces.empty() ? 180.0 : shape_to_degrees(worst);
 }
 
+std::size_t flip_rim_slivers(Mesh& mesh, const std::vector<FaceHandle>& patch_faces,
+                             const RimSliverOptions& options) {
+  const FaceSet patch(patch_faces);
+  const auto in_patch = [&](HalfedgeHandle h) {
+    const FaceHandle f = mesh.face_handle(h);
+    return f.is_valid() && patch.contains(f);
+  };
+  const double goal = std::sin(options.goal_deg * kRadian);
+  const double turn_cos = std::cos(options.max_turn_deg * kRadian);
+  std::size_t flips = 0;
+  for (const FaceHandle f : patch_faces) {
+    // The chord: the one side whose other face is in the patch.
+    HalfedgeHandle chord;
+    int interior_sides = 0;
+    for (const HalfedgeHandle h : mesh.fh_range(f))
+      if (in_patch(mesh.opposite_halfedge_handle(h))) {
+        ++interior_sides;
+        chord = h;
+      }
+    if (interior_sides != 1) continue;
+    const EdgeHandle e = mesh.edge_handle(chord);
+    if (!mesh.is_flip_ok(e)) continue;
+    const HalfedgeHandle twin = mesh.opposite_halfedge_handle(chord);
+    const Vec3& a = mesh.point(mesh.from_vertex_handle(chord));
+    const Vec3& c = mesh.point(mesh.to_vertex_handle(chord));
+    const Vec3& rim = mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(chord)));
+    const Vec3& across = mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(twin)));
+    const double before = std::min(triangle_shape(a, c, rim), triangle_shape(c, a, across));
+    if (!(before < goal)) continue;
+    if (segment_segment_distance2(a, c, rim, rim) > std::pow(options.max_width * (c - a).norm(), 2))
+      continue;
+    const double after = std::min(triangle_shape(rim, a, across), triangle_shape(across, c, rim));
+    if (!(after > before + 1e-9)) continue;
+    const Vec3 reference =
+        (OpenMesh::cross(c - a, rim - a) + OpenMesh::cross(a - c, across - c)).normalize_cond();
+    bool turns = false;
+    for (const Vec3& n :
+         {OpenMesh::cross(a - rim, across - rim), OpenMesh::cross(c - across, rim - across)}) {
+      const double length = n.norm();
+      turns = turns || !(length > 0) || OpenMesh::dot(n, reference) < turn_cos * length;
+    }
+    if (turns) continue;
+    mesh.flip(e);
+    ++flips;
+  }
+  return flips;
+}
+
 PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
                                          std::vector<VertexHandle>& new_vertices,
                                          const PatchQualityOptions& options) {

@@ -90,6 +90,28 @@ PatchQualityReport improve_patch_quality(Mesh& mesh, std::vector<FaceHandle>& pa
                                          std::vector<VertexHandle>& new_vertices,
                                          const PatchQualityOptions& options = {});
 
+//! A triangle of the patch with two sides on its rim and a nearly straight corner between them:
+//! a split along a crease curve leaves one where the curve's chord cuts off a single rim vertex
+//! (the crease runs along the rim there, so one side of the chord is only that sliver), and
+//! the per-region passes above cannot flip the chord, which borders two regions. Its one
+//! interior edge is flipped, so the two new triangles take the rim vertex and the crease
+//! follows the rim, when:
+//!  - the smaller angle of the two triangles grows and was below \p goal_deg;
+//!  - the rim vertex lies within \p max_width of the chord's length from the chord (the flip
+//!    moves the surface by at most that);
+//!  - neither new triangle turns further than \p max_turn_deg from the pair's area-weighted
+//!    normal (the sliver's own normal is noise).
+struct RimSliverOptions {
+  double goal_deg = 15.0;
+  double max_width = 0.1;
+  double max_turn_deg = 30.0;
+};
+
+//! Flips the chords of the rim slivers of \p patch_faces (see RimSliverOptions); returns the
+//! number of flips. Face handles stay valid (a flip reuses both faces).
+std::size_t flip_rim_slivers(Mesh& mesh, const std::vector<FaceHandle>& patch_faces,
+                             const RimSliverOptions& options = {});
+
 //! Smallest angle (degrees) of the triangles of \p faces.
 double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces);
 

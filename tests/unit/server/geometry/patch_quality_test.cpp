@@ -193,5 +193,53 @@ TEST(PatchQuality, CollapseMendsAVertexCrowdedAgainstTheRim) {
   EXPECT_EQ(find_holes(with.mesh).holes.size(), 1u);  // only the outer border
 }
 
+//! Two mesh faces above a rim a–b–c in the plane z = 0 (b lifted \p width off the chord a–c,
+//! towards the mesh) and a patch below it: the sliver (b, a, c) and (c, a, x), folded down
+//! along the chord, as a split along a crease curve leaves them when the curve's chord cuts off
+//! the rim vertex b.
+struct RimSliver {
+  Mesh mesh;
+  std::vector<FaceHandle> patch;
+  VertexHandle b, x;
+};
+
+RimSliver rim_sliver(double b_x, double width) {
+  MeshSoup s;
+  s.points = {{0, 0, 0}, {b_x, width, 0}, {2, 0, 0}, {0.5, 1, 0}, {1.5, 1, 0}};
+  s.triangles = {{0, 1, 3}, {1, 4, 3}, {1, 2, 4}};
+  RimSliver out{build_mesh(s).mesh, {}, VertexHandle(), VertexHandle()};
+  const VertexHandle a(0), c(2);
+  out.b = VertexHandle(1);
+  out.x = out.mesh.add_vertex(Vec3(1, -1, -1));
+  out.patch = {out.mesh.add_face(out.b, a, c), out.mesh.add_face(c, a, out.x)};
+  return out;
+}
+
+TEST(PatchQuality, RimSliverChordIsFlippedSoTheCreaseFollowsTheRim) {
+  RimSliver h = rim_sliver(1.0, 0.02);  // the sliver's smallest angle: 1.1°
+  for (const FaceHandle f : h.patch) ASSERT_TRUE(f.is_valid());
+  const double before = min_angle_deg(h.mesh, h.patch);
+  ASSERT_LT(before, 2.0);
+  EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch), 1u);
+  EXPECT_TRUE(h.mesh.find_halfedge(h.b, h.x).is_valid());  // the rim vertex joins the far one
+  EXPECT_FALSE(h.mesh.find_halfedge(VertexHandle(0), VertexHandle(2)).is_valid());
+  EXPECT_GT(min_angle_deg(h.mesh, h.patch), 30.0);
+  EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
+  EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);    // one border, as before
+  EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch), 0u);  // nothing left to mend
+}
+
+TEST(PatchQuality, RimSliverTooWideIsKept) {
+  // b 0.25 off a chord of 2 (over a tenth of it): a flip would move the surface by that much,
+  // though the triangle's smallest angle (8.4° at c) is under the goal.
+  RimSliver h = rim_sliver(0.3, 0.25);
+  ASSERT_LT(min_angle_deg(h.mesh, h.patch), 15.0);
+  EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch), 0u);
+  RimSliverOptions wider;
+  wider.max_width = 0.2;  // 0.2 · 2 > 0.25: the width alone kept it
+  EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch, wider), 1u);
+  EXPECT_TRUE(h.mesh.find_halfedge(h.b, h.x).is_valid());
+}
+
 }  // namespace
 }  // namespace touchmend::geometry
