@@ -228,7 +228,7 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
     in.blocked = loop.blocked;
     in.normal = hole.is_simple ? hole.reference_normal : hole.normal;
     in.curves = sample_plan_curves(*creases, hole.mean_edge_length);
-    in.corner = creases->corner;
+    in.corners = creases->corners;
     in.max_dp_vertices = options.max_dp_vertices;
     CurveSplitTriangulation t = triangulate_along_curves(in);
     out.ok = t.ok;

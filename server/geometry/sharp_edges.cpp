@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -428,40 +429,184 @@ std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, co
   return shape->tangent;
 }
 
-bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings,
-                    double line_tolerance, const HermiteOptions& hermite, double tolerance) {
-  if (crossings.size() < 3) return false;
+namespace {
+
+//! The least-squares nearest point to the tangent lines of \p crossings (two or more), if it
+//! lies ahead of every crossing and within \p line_tolerance of every line.
+std::optional<Vec3> corner_ahead_of(const HoleCreasePlan& plan,
+                                    std::span<const std::size_t> crossings, double line_tolerance) {
+  if (crossings.size() < 2) return std::nullopt;
   std::vector<Vec3> origins, directions;
   for (const std::size_t i : crossings) {
     origins.push_back(plan.crossings[i].position);
     directions.push_back(plan.crossings[i].inward);
   }
   const std::optional<Vec3> corner = nearest_point_to_lines(origins, directions);
-  if (!corner) return false;
-  // Ahead of every crease, and near every tangent line.
+  if (!corner) return std::nullopt;
   for (std::size_t k = 0; k < crossings.size(); ++k) {
     const Vec3 to_corner = *corner - origins[k];
     const double along = OpenMesh::dot(to_corner, directions[k]);
     const double off_line = (to_corner - along * directions[k]).norm();
-    if (along <= 0 || off_line > line_tolerance) return false;
+    if (along <= 0 || off_line > line_tolerance) return std::nullopt;
   }
-  std::vector<CreaseCurve> curves;
+  return corner;
+}
+
+//! The point nearest \p x on the crease of \p c continued into the hole with the bend fitted
+//! at the rim: p + s·t + ½s²κ, s ≥ 0 (Newton from the tangent line's nearest point).
+Vec3 nearest_on_bent_crease(const CreaseCrossing& c, const Vec3& x) {
+  const auto at = [&](double s) { return c.position + s * c.inward + 0.5 * s * s * c.curvature; };
+  double s = std::max(0.0, OpenMesh::dot(x - c.position, c.inward));
+  for (int step = 0; step < 8; ++step) {
+    // d/ds |at(s) - x|² / 2 = (at(s) - x)·(t + sκ)
+    const Vec3 d = at(s) - x;
+    const Vec3 velocity = c.inward + s * c.curvature;
+    const double second = velocity.sqrnorm() + OpenMesh::dot(d, c.curvature);
+    if (!(second > 0)) break;
+    s = std::max(0.0, s - OpenMesh::dot(d, velocity) / second);
+  }
+  return at(s);
+}
+
+//! Where the bent creases (nearest_on_bent_crease) of \p crossings come closest to a common
+//! point: alternating projections from \p start (the point nearest their tangent lines). A
+//! crease that curves into a corner (couplingdown_sharp #2's top edges) misses it along its
+//! tangent line by a third of the hole's radius.
+Vec3 corner_of_bent_creases(const HoleCreasePlan& plan, std::span<const std::size_t> crossings,
+                            const Vec3& start) {
+  Vec3 corner = start;
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    Vec3 sum(0, 0, 0);
+    for (const std::size_t i : crossings) sum += nearest_on_bent_crease(plan.crossings[i], corner);
+    corner = sum / static_cast<double>(crossings.size());
+  }
+  return corner;
+}
+
+//! How far \p corner lies from the farthest of the bent creases of \p crossings.
+double farthest_bent_crease(const HoleCreasePlan& plan, std::span<const std::size_t> crossings,
+                            const Vec3& corner) {
+  double worst = 0;
+  for (const std::size_t i : crossings)
+    worst = std::max(worst, (nearest_on_bent_crease(plan.crossings[i], corner) - corner).norm());
+  return worst;
+}
+
+//! Appends \p corner to the plan and a curve to it from each of \p crossings.
+void add_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings, const Vec3& corner,
+                const HermiteOptions& hermite, double tolerance) {
   for (const std::size_t i : crossings) {
     const CreaseCrossing& c = plan.crossings[i];
-    const Vec3 chord = *corner - c.position;
+    const Vec3 chord = corner - c.position;
     const Vec3 unit = Vec3(chord).normalize_cond();
     // Arrive as a circular arc would: the start tangent mirrored about the chord.
     const Vec3 end_direction = 2.0 * OpenMesh::dot(c.inward, unit) * unit - c.inward;
     CreaseCurve curve;
     curve.from = i;
-    curve.points = {c.far_point, c.position, *corner, *corner + chord.norm() * end_direction};
+    curve.corner = plan.corners.size();
+    curve.points = {c.far_point, c.position, corner, corner + chord.norm() * end_direction};
     const HermiteCurveResult r = make_hermite_curve(curve.points, hermite, tolerance);
     if (!r.curve) continue;  // the corner is on the rim there: no curve needed
     curve.curve = *r.curve;
-    curves.push_back(curve);
+    plan.curves.push_back(curve);
   }
-  plan.corner = corner;
-  plan.curves.insert(plan.curves.end(), curves.begin(), curves.end());
+  plan.corners.push_back(corner);
+}
+
+}  // namespace
+
+bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings,
+                    double line_tolerance, const HermiteOptions& hermite, double tolerance) {
+  if (crossings.size() < 3) return false;
+  const std::optional<Vec3> corner = corner_ahead_of(plan, crossings, line_tolerance);
+  if (!corner) return false;
+  add_corner(plan, crossings, *corner, hermite, tolerance);
+  return true;
+}
+
+namespace {
+
+//! Four or more creases left over may meet at two corners joined by a straight crease
+//! (couplingdown_sharp #2: a box edge's two top creases meet at one corner, from which a
+//! vertical edge drops to where a chamfer's creases and a third edge meet). The crossings (in
+//! loop order) are split into two runs of at least two, contiguous along the loop so that the
+//! curves cannot cross; each run's tangent lines must meet ahead of them within \p
+//! line_tolerance (corner_ahead_of), and that point is moved to where the creases, continued
+//! with their fitted bend, come closest (corner_of_bent_creases), which must be \p near_hole.
+//! Of the splits that qualify, the one whose creases pass closest to their corners (the larger
+//! of the two corners' farthest_bent_crease) is taken; \p farthest receives that distance.
+bool join_at_two_corners(HoleCreasePlan& plan, std::span<const std::size_t> crossings,
+                         double line_tolerance, const HermiteOptions& hermite, double tolerance,
+                         const std::function<bool(const Vec3&)>& near_hole, double& farthest) {
+  const std::size_t count = crossings.size();
+  if (count < 4) return false;
+  double best_score = std::numeric_limits<double>::infinity();
+  std::vector<std::size_t> best_a, best_b;
+  Vec3 best_corner_a, best_corner_b;
+  for (std::size_t start = 0; start < count; ++start)
+    for (std::size_t length = 2; length + 2 <= count; ++length) {
+      std::vector<std::size_t> a, b;
+      for (std::size_t k = 0; k < count; ++k)
+        (k < length ? a : b).push_back(crossings[(start + k) % count]);
+      std::optional<Vec3> ca = corner_ahead_of(plan, a, line_tolerance);
+      std::optional<Vec3> cb = corner_ahead_of(plan, b, line_tolerance);
+      if (!ca || !cb) continue;
+      *ca = corner_of_bent_creases(plan, a, *ca);
+      *cb = corner_of_bent_creases(plan, b, *cb);
+      if (!near_hole(*ca) || !near_hole(*cb)) continue;
+      const double score =
+          std::max(farthest_bent_crease(plan, a, *ca), farthest_bent_crease(plan, b, *cb));
+      if (score < best_score) {
+        best_score = score;
+        best_a = a;
+        best_b = b;
+        best_corner_a = *ca;
+        best_corner_b = *cb;
+      }
+    }
+  if (best_a.empty()) return false;
+  farthest = best_score;
+  const std::size_t first = plan.corners.size();
+  add_corner(plan, best_a, best_corner_a, hermite, tolerance);
+  add_corner(plan, best_b, best_corner_b, hermite, tolerance);
+  plan.corner_links.emplace_back(first, first + 1);
+  return true;
+}
+
+}  // namespace
+
+bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
+                     std::span<const std::size_t> crossings, double line_tolerance,
+                     double two_corner_gain, const HermiteOptions& hermite, double tolerance,
+                     const std::function<bool(const Vec3&)>& inside_hole) {
+  if (crossings.size() < 3) return false;
+  // Two corners fit more freely (each run's creases only), so they are taken only where they
+  // fit far better: the creases, bent as fitted, pass at most `two_corner_gain` as far from
+  // them as from the single corner (couplingdown_sharp #2: 0.23 of it). Four creases through
+  // one point are rarer than two corners of three (a polyhedron's generic vertex).
+  HoleCreasePlan one = plan;
+  const bool single = join_at_corner(one, crossings, line_tolerance, hermite, tolerance) &&
+                      inside_hole(one.corners.back());
+  const double single_distance = single ? farthest_bent_crease(one, crossings, one.corners.back())
+                                        : std::numeric_limits<double>::infinity();
+  // Two corners need only lie within the rim's ball around its centroid: a hole around a box
+  // corner folds in every projection, and the box's corner can fall outside (couplingdown_sharp
+  // #2's top corner).
+  double rim_radius = 0;
+  for (const VertexHandle v : hole.loop)
+    rim_radius = std::max(rim_radius, (mesh.point(v) - hole.centroid).norm());
+  const auto near_hole = [&](const Vec3& p) { return (p - hole.centroid).norm() <= rim_radius; };
+  HoleCreasePlan two = plan;
+  double two_distance = 0;
+  if (crossings.size() >= 4 &&
+      join_at_two_corners(two, crossings, line_tolerance, hermite, tolerance, near_hole,
+                          two_distance) &&
+      two_distance <= two_corner_gain * single_distance) {
+    plan = std::move(two);
+    return true;
+  }
+  if (!single) return false;
+  plan = std::move(one);
   return true;
 }
 
@@ -615,6 +760,10 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       const Vec3 chord = cb.position - ca.position;
       if (ca.loop_index == cb.loop_index || !(chord.norm() > 0) || ca.convex != cb.convex ||
           !(strong(a) || strong(b)))
+        continue;
+      if (strong(a) && strong(b) &&
+          std::max(ca.dihedral_deg, cb.dihedral_deg) >
+              options.max_pair_dihedral_ratio * std::min(ca.dihedral_deg, cb.dihedral_deg))
         continue;
       Candidate c{std::max(angle_between(ca.inward, chord), angle_between(cb.inward, -chord)),
                   a,
@@ -794,18 +943,21 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     plan.curves.push_back(curve);
   }
 
-  const std::size_t paired_curves = plan.curves.size();
-  if (left.size() >= 3 && corner_side_ok &&
-      join_at_corner(plan, left, options.corner_tolerance * diameter, options.hermite, tolerance) &&
-      !point_in_polygon(polygon, frame.project(*plan.corner))) {
-    // The corner must lie inside the hole's projection.
-    plan.corner.reset();
-    plan.curves.resize(paired_curves);
-  }
-  if (plan.corner) left.clear();
+  // A corner must lie inside the hole's projection.
+  const auto inside_hole = [&](const Vec3& p) {
+    return point_in_polygon(polygon, frame.project(p));
+  };
+  if (left.size() >= 3 && corner_side_ok)
+    join_at_corners(plan, mesh, hole, left, options.corner_tolerance * diameter,
+                    options.two_corner_gain, options.hermite, tolerance, inside_hole);
+  if (!plan.corners.empty()) left.clear();
   plan.unmatched = left;
   plan.summary = fmt::format("{} crease crossings, {} curves{}{}", plan.crossings.size(),
-                             plan.curves.size(), plan.corner ? " meeting at a corner" : "",
+                             plan.curves.size() + plan.corner_links.size(),
+                             plan.corners.size() > 1
+                                 ? fmt::format(" meeting at {} corners", plan.corners.size())
+                             : plan.corners.empty() ? ""
+                                                    : " meeting at a corner",
                              left.empty() ? "" : fmt::format(", {} unmatched", left.size()));
   return plan;
 }
@@ -816,7 +968,8 @@ std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& pla
   for (const CreaseCurve& c : plan.curves) {
     CurveSplitInput::Curve curve;
     curve.from = static_cast<int>(plan.crossings[c.from].loop_index);
-    curve.to = c.to ? static_cast<int>(plan.crossings[*c.to].loop_index) : -1;
+    curve.to =
+        c.to ? static_cast<int>(plan.crossings[*c.to].loop_index) : -1 - static_cast<int>(c.corner);
     if (c.arc) {
       // Capped so a degenerate spacing cannot ask for an absurd count (the triangulation's own
       // size limit refuses far fewer).
@@ -830,6 +983,19 @@ std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& pla
         curve.interior.push_back(samples[i].point);
     }
     out.push_back(std::move(curve));
+  }
+  // A crease between two corners is straight (an edge of two planes, as the corners' creases
+  // are fitted straight lines near them).
+  for (const auto& [a, b] : plan.corner_links) {
+    CurveSplitInput::Curve link;
+    link.from = -1 - static_cast<int>(a);
+    link.to = -1 - static_cast<int>(b);
+    const Vec3 start = plan.corners[a], end = plan.corners[b];
+    const std::size_t segments = static_cast<std::size_t>(std::clamp(
+        std::ceil((end - start).norm() / std::max(segment_length, 1e-300)), 1.0, 65536.0));
+    for (std::size_t i = 1; i < segments; ++i)
+      link.interior.push_back(start + (static_cast<double>(i) / segments) * (end - start));
+    out.push_back(std::move(link));
   }
   return out;
 }
@@ -917,20 +1083,25 @@ std::vector<CurveSplitInput::Curve> attach_curves_to_boundary(const CurveSplitIn
   // A piece without samples between two neighbouring boundary vertices runs along the boundary
   // edge that is already there: it adds nothing and is dropped.
   const auto emit = [&](CurveSplitInput::Curve c) {
-    if (c.to >= 0 && c.interior.empty()) {
+    if (c.from >= 0 && c.to >= 0 && c.interior.empty()) {
       const int gap = ((c.to - c.from) % loop_n + loop_n) % loop_n;
       if (gap == 0 || gap == 1 || gap == loop_n - 1) return;
     }
     out.push_back(std::move(c));
   };
+  const int corners = static_cast<int>(input.corners.size());
+  const auto valid_end = [&](int end) { return end < loop_n && -1 - end < corners; };
+  const auto point_of = [&](int end) {
+    return end >= 0 ? input.loop[static_cast<std::size_t>(end)]
+                    : input.corners[static_cast<std::size_t>(-1 - end)];
+  };
   for (const auto& curve : input.curves) {
-    if (curve.from < 0 || curve.from >= loop_n || curve.to >= loop_n) {
+    if (!valid_end(curve.from) || !valid_end(curve.to)) {
       out.push_back(curve);  // refused below with a clear reason
       continue;
     }
-    const Vec3 start = input.loop[static_cast<std::size_t>(curve.from)];
-    const Vec3 end = curve.to >= 0 ? input.loop[static_cast<std::size_t>(curve.to)]
-                                   : input.corner.value_or(start);
+    const Vec3 start = point_of(curve.from);
+    const Vec3 end = point_of(curve.to);
     double length = 0;
     Vec3 previous = start;
     for (const Vec3& p : curve.interior) {
@@ -984,8 +1155,13 @@ CurveSplitTriangulation triangulate_along_curves(const CurveSplitInput& original
     out.new_points.push_back(p);
     return static_cast<int>(pool.size()) - 1;
   };
-  int corner = -1;
-  if (input.corner) corner = add_point(*input.corner);
+  // Corner k is pool node corner_node[k]; a curve end -1 - k names it.
+  std::vector<int> corner_node;
+  for (const Vec3& c : input.corners) corner_node.push_back(add_point(c));
+  const int corners = static_cast<int>(corner_node.size());
+  const auto node_of = [&](int end) {
+    return end >= 0 ? end : corner_node[static_cast<std::size_t>(-1 - end)];
+  };
   // Undirected adjacency of the graph: boundary edges and curve edges.
   std::map<int, std::set<int>> neighbours;
   for (int i = 0; i < loop_n; ++i) {
@@ -996,14 +1172,16 @@ CurveSplitTriangulation triangulate_along_curves(const CurveSplitInput& original
   std::vector<std::pair<int, int>> shared_pairs;
   for (int i = 0; i < loop_n; ++i) directed.insert({i, (i + 1) % loop_n});
   for (const auto& curve : input.curves) {
-    if (curve.from < 0 || curve.from >= loop_n || curve.to >= loop_n ||
-        (curve.to < 0 && corner < 0) || curve.from == curve.to) {
-      out.failure = "a curve does not start and end on the hole boundary";
+    // From the rim to the rim or a corner, or between two corners.
+    const bool link = curve.from < 0;
+    if (curve.from >= loop_n || curve.to >= loop_n || -1 - curve.from >= corners ||
+        -1 - curve.to >= corners || (link && curve.to >= 0) || curve.from == curve.to) {
+      out.failure = "a curve does not start and end on the hole boundary or at a corner";
       return out;
     }
-    std::vector<int> chain{curve.from};
+    std::vector<int> chain{node_of(curve.from)};
     for (const Vec3& p : curve.interior) chain.push_back(add_point(p));
-    chain.push_back(curve.to >= 0 ? curve.to : corner);
+    chain.push_back(node_of(curve.to));
     // Two nodes of one curve lie on both regions beside it: an edge between them in both
     // would have four faces, so neither region may join them.
     for (std::size_t x = 0; x < chain.size(); ++x)
@@ -1027,33 +1205,54 @@ CurveSplitTriangulation triangulate_along_curves(const CurveSplitInput& original
   // Faces of the planar graph, traced combinatorially (a projection can fold curves of a hole
   // around a corner over each other). Around a boundary vertex i the hole's side runs
   // counter-clockwise from i+1 to i-1, and a curve to j comes before one to k when j is nearer
-  // i+1 along the loop; around the corner the curves come in loop order. Leaving v after
-  // arriving from u, the region on the left continues to u's clockwise neighbour at v.
+  // i+1 along the loop; around a corner the curves come in loop order of their rim ends, and a
+  // crease to another corner where that corner's rim ends are (they lie between two of this
+  // corner's, or the curves would cross). Leaving v after arriving from u, the region on the
+  // left continues to u's clockwise neighbour at v.
   std::map<int, std::vector<int>> ccw;  // node -> neighbours counter-clockwise
   {
     std::map<int, std::vector<std::pair<int, int>>> curve_starts;  // loop vertex -> (key, nbr)
-    std::vector<std::pair<int, int>> corner_members;               // (loop index, nbr)
-    int next_new = loop_n + (corner >= 0 ? 1 : 0);
+    // corner -> (loop index of a rim end, neighbour); a link waits for its other corner's.
+    std::vector<std::vector<std::pair<int, int>>> corner_members(corner_node.size());
+    std::vector<int> rim_end_of_corner(corner_node.size(), -1);
+    std::vector<std::pair<int, std::pair<int, int>>> links;  // (corner, (other corner, nbr))
+    int next_new = loop_n + corners;
     for (const auto& curve : input.curves) {
       const int k = static_cast<int>(curve.interior.size());
-      const int first = k > 0 ? next_new : (curve.to >= 0 ? curve.to : corner);
-      const int last = k > 0 ? next_new + k - 1 : curve.from;
-      const int forward = curve.to >= 0 ? ((curve.to - curve.from) % loop_n + loop_n) % loop_n
-                                        : loop_n;  // a corner curve: after the others
-      curve_starts[curve.from].emplace_back(forward, first);
-      if (curve.to >= 0) {
-        const int back = ((curve.from - curve.to) % loop_n + loop_n) % loop_n;
-        curve_starts[curve.to].emplace_back(back, last);
+      const int first = k > 0 ? next_new : node_of(curve.to);
+      const int last = k > 0 ? next_new + k - 1 : node_of(curve.from);
+      if (curve.from < 0) {
+        links.push_back({-1 - curve.from, {-1 - curve.to, first}});
+        links.push_back({-1 - curve.to, {-1 - curve.from, last}});
       } else {
-        corner_members.emplace_back(curve.from, last);
+        const int forward = curve.to >= 0 ? ((curve.to - curve.from) % loop_n + loop_n) % loop_n
+                                          : loop_n;  // a corner curve: after the others
+        curve_starts[curve.from].emplace_back(forward, first);
+        if (curve.to >= 0) {
+          const int back = ((curve.from - curve.to) % loop_n + loop_n) % loop_n;
+          curve_starts[curve.to].emplace_back(back, last);
+        } else {
+          const std::size_t c = static_cast<std::size_t>(-1 - curve.to);
+          corner_members[c].emplace_back(curve.from, last);
+          rim_end_of_corner[c] = curve.from;
+        }
       }
       for (int j = 0; j < k; ++j) {
         const int node = next_new + j;
-        const int before = j == 0 ? curve.from : node - 1;
-        const int after = j + 1 < k ? node + 1 : (curve.to >= 0 ? curve.to : corner);
+        const int before = j == 0 ? node_of(curve.from) : node - 1;
+        const int after = j + 1 < k ? node + 1 : node_of(curve.to);
         ccw[node] = {before, after};
       }
       next_new += k;
+    }
+    for (const auto& [c, link] : links) {
+      const int key = rim_end_of_corner[static_cast<std::size_t>(link.first)];
+      if (key < 0) {
+        out.failure =
+            "a crease between two corners ends at a corner no crease from the rim reaches";
+        return out;
+      }
+      corner_members[static_cast<std::size_t>(c)].emplace_back(key, link.second);
     }
     for (int i = 0; i < loop_n; ++i) {
       std::vector<int>& order = ccw[i];
@@ -1063,9 +1262,10 @@ CurveSplitTriangulation triangulate_along_curves(const CurveSplitInput& original
       for (const auto& [key, neighbour] : starts) order.push_back(neighbour);
       order.push_back((i + loop_n - 1) % loop_n);
     }
-    if (corner >= 0) {
-      std::sort(corner_members.begin(), corner_members.end());
-      for (const auto& [index, neighbour] : corner_members) ccw[corner].push_back(neighbour);
+    for (std::size_t c = 0; c < corner_node.size(); ++c) {
+      std::sort(corner_members[c].begin(), corner_members[c].end());
+      for (const auto& [index, neighbour] : corner_members[c])
+        ccw[corner_node[c]].push_back(neighbour);
     }
   }
   auto next_after = [&](int u, int v) {

@@ -38,6 +38,7 @@
 //! the better is joined: the split along both would not be manifold.
 
 #include <array>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -62,9 +63,16 @@ struct CreaseOptions {
   //! lone 46° edge beside a 76° one (the rocker arm) is not.
   double clean_crease_angle_deg = 40;
   double clean_crease_ratio = 1.0 / 3.0;
+  //! Two strong crossings pair only if the sharper bends by at most this factor of the other:
+  //! a crease keeps its angle along its length (couplingdown_sharp #2: a 90° box edge does not
+  //! go on as a 45° chamfer's edge). A weak partner (`partner_angle_deg`) is not held to it.
+  double max_pair_dihedral_ratio = 1.5;
   //! Three or more creases meet at a corner only if their tangent lines pass within this
   //! fraction of the hole diameter of a common point.
   double corner_tolerance = 0.1;
+  //! Four or more creases left over meet at two corners joined by a straight crease instead of
+  //! one only when the tangent lines pass at most this fraction as far from those corners.
+  double two_corner_gain = 0.5;
   //! Arc length of the crease used for the tangent fit, in hole diameters (perimeter / π).
   double fit_length = 0.5;
   //! A pair whose tangents turn by at least this between the crossings may be joined by a
@@ -140,10 +148,11 @@ std::optional<CreaseArc> crease_arc_between(const CreaseCrossing& a, const Creas
 double min_arc_turn_deg(const CreaseOptions& options, const CreaseCrossing& a,
                         const CreaseCrossing& b);
 
-//! One feature curve through the hole: between two crossings, or from a crossing to the corner.
+//! One feature curve through the hole: between two crossings, or from a crossing to a corner.
 struct CreaseCurve {
   std::size_t from = 0;           //!< crossing index
-  std::optional<std::size_t> to;  //!< crossing index; none: ends at the plan's corner
+  std::optional<std::size_t> to;  //!< crossing index; none: ends at the plan's corner `corner`
+  std::size_t corner = 0;         //!< index into HoleCreasePlan::corners when `to` is none
   HermitePoints points;           //!< P1..P4 of the curve (seed 000 Fig. 4.2)
   HermiteCurve curve;
   //! A curved crease's arc (crease_arc_between): when set, the curve through the hole is this
@@ -154,7 +163,10 @@ struct CreaseCurve {
 struct HoleCreasePlan {
   std::vector<CreaseCrossing> crossings;
   std::vector<CreaseCurve> curves;
-  std::optional<Vec3> corner;
+  //! Where creases meet inside the hole: one corner (a cube corner cut away), or two joined by
+  //! a straight crease (corner_links), each with the creases from the rim that end there.
+  std::vector<Vec3> corners;
+  std::vector<std::pair<std::size_t, std::size_t>> corner_links;
   std::vector<std::size_t> unmatched;  //!< crossings that no curve uses
   std::string summary;                 //!< one line for reports
 };
@@ -169,11 +181,22 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
 
 //! Extends the creases of \p crossings (indices into plan.crossings, three or more) to a common
 //! corner: the least-squares nearest point to their tangent lines, which must lie ahead of every
-//! crossing and within \p line_tolerance of every line. On success sets plan.corner and appends
-//! one curve per crossing, from it to the corner (arriving as a circular arc would); otherwise
-//! leaves \p plan unchanged. \p tolerance is the smallest distance that counts.
+//! crossing and within \p line_tolerance of every line. On success appends the corner to
+//! plan.corners and one curve per crossing, from it to the corner (arriving as a circular arc
+//! would); otherwise leaves \p plan unchanged. \p tolerance is the smallest distance that counts.
 bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings,
                     double line_tolerance, const HermiteOptions& hermite, double tolerance);
+
+//! Joins the creases of \p crossings (three or more) inside the hole: at one corner
+//! (join_at_corner, which must satisfy \p inside_hole) or, four or more, at two corners joined
+//! by a straight crease, each run of creases contiguous along the loop, their corners where the
+//! creases continued with their fitted bend come closest. Two corners are taken when their
+//! creases pass within \p two_corner_gain of the single corner's distance. Returns false, \p
+//! plan unchanged, when neither qualifies.
+bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
+                     std::span<const std::size_t> crossings, double line_tolerance,
+                     double two_corner_gain, const HermiteOptions& hermite, double tolerance,
+                     const std::function<bool(const Vec3&)>& inside_hole);
 
 //! The crease that a pick P1 points at from vertex \p at (P2's or P3's vertex on the rim):
 //! the chain of edges sharper than \p angle_deg that leaves \p at, continues straightest and
@@ -206,15 +229,16 @@ struct CurveSplitInput {
   std::span<const Vec3> opposite;  //!< third vertex across boundary edge i (midpoint if none)
   std::span<const std::pair<int, int>> blocked;  //!< loop pairs joined by a mesh edge outside
   Vec3 normal{0, 0, 1};  //!< projection direction for the region split (the hole's normal)
-  //! Each curve: loop index of its start, loop index of its end or -1 for the corner, and its
-  //! points strictly between the ends.
+  //! Each curve: its ends, a loop index or -1 - k for corner k (a curve from a crossing ends at
+  //! the rim or at a corner; a crease between two corners starts at one), and its points
+  //! strictly between the ends.
   struct Curve {
     int from = 0;
     int to = -1;
     std::vector<Vec3> interior;
   };
   std::vector<Curve> curves;
-  std::optional<Vec3> corner;
+  std::vector<Vec3> corners;
   std::size_t max_dp_vertices = 400;
 };
 

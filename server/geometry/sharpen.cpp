@@ -357,7 +357,7 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
     if (options.tangents == PickTangents::Crease && ends.start && ends.end)
       arc = picked_crease_arc(mesh, hole, i2, snapped.p1, i3, snapped.p4, options);
     if (arc) ++result.arcs;
-    plan.curves.push_back({*a, *b, p, *curve.curve, arc});
+    plan.curves.push_back({*a, *b, 0, p, *curve.curve, arc});
     if (k == 0) {
       result.points = p;
       result.crease_tangent_start = ends.start;
@@ -379,9 +379,18 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
     CreaseCrossing& c = plan.crossings[*index];
     const double reach = (*far - c.position).norm();
     std::optional<Vec3> outward;
-    if (options.tangents == PickTangents::Crease)
-      outward =
-          crease_direction(mesh, c.vertex, *far, hole.perimeter, hole.mean_edge_length, options);
+    if (options.tangents == PickTangents::Crease) {
+      // The crease's bend too: creases that curve into their corner meet where they bend to
+      // (join_at_corners), not where their tangent lines cross.
+      const auto shape = crease_shape_towards(
+          mesh, c.vertex, *far, options.crease_angle_deg,
+          options.crease_pick_tolerance * hole.mean_edge_length,
+          crease_fit_length(hole.perimeter, hole.mean_edge_length, CreaseOptions{}.fit_length));
+      if (shape) {
+        outward = shape->tangent;
+        c.curvature = shape->curvature;
+      }
+    }
     if (outward) {
       ++result.crease_tangents_taken;
     } else if (reach > tolerance) {
@@ -397,18 +406,22 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
   }
   if (!corner_crossings.empty()) {
     const double line_tolerance = options.fill.creases.corner_tolerance * diameter;
-    if (!join_at_corner(plan, corner_crossings, line_tolerance, options.hermite, tolerance)) {
+    if (!join_at_corners(plan, mesh, hole, corner_crossings, line_tolerance,
+                         options.fill.creases.two_corner_gain, options.hermite, tolerance,
+                         [](const Vec3&) { return true; })) {
       result.failure = fmt::format(
           "the corner's creases do not meet: their tangent lines into the hole pass no common "
           "point ahead of every crease within {:.3g} ({} hole diameters)",
           line_tolerance, options.fill.creases.corner_tolerance);
       return result;
     }
-    result.corner = plan.corner;
+    result.corner = plan.corners.front();
   }
-  plan.summary =
-      fmt::format("{} picked curve{}{}", plan.curves.size(), plan.curves.size() == 1 ? "" : "s",
-                  plan.corner ? " meeting at a corner" : "");
+  plan.summary = fmt::format(
+      "{} picked curve{}{}", plan.curves.size(), plan.curves.size() == 1 ? "" : "s",
+      plan.corners.size() > 1 ? fmt::format(" meeting at {} corners", plan.corners.size())
+      : plan.corners.empty()  ? ""
+                              : " meeting at a corner");
   fill_split(mesh, hole, plan, options, result);
   return result;
 }

@@ -240,7 +240,7 @@ int main(int argc, char** argv) {
         geo::Mesh& mesh = planned->mesh;
         const geo::Hole& hole = planned->hole();
         const geo::HoleCreasePlan& plan = planned->plan;
-        if (!plan.corner && plan.curves.size() < 2) continue;
+        if (plan.corners.empty() && plan.curves.size() < 2) continue;
         geo::PickedCreases picked;
         const double shift = pick_offset * hole.mean_edge_length;
         const auto on_crease = [&](const geo::CreaseCrossing& x) {
