@@ -53,6 +53,37 @@ double face_shape(const Mesh& mesh, FaceHandle f) {
   return triangle_shape(p[0], p[1], p[2]);
 }
 
+//! The quad around the edge of halfedge \p h: i -> j along h, k opposite it in h's triangle
+//! (i, j, k), m opposite it in the twin's (j, i, m). A flip makes (k, i, m) and (m, j, k).
+struct FlipQuad {
+  Vec3 i, j, k, m;
+
+  FlipQuad(const Mesh& mesh, HalfedgeHandle h)
+      : i(mesh.point(mesh.from_vertex_handle(h))),
+        j(mesh.point(mesh.to_vertex_handle(h))),
+        k(mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(h)))),
+        m(mesh.point(
+            mesh.to_vertex_handle(mesh.next_halfedge_handle(mesh.opposite_halfedge_handle(h))))) {}
+
+  //! The smaller shape (sin of the smallest angle) of the two triangles, before and after.
+  double before() const { return std::min(triangle_shape(i, j, k), triangle_shape(j, i, m)); }
+  double after() const { return std::min(triangle_shape(k, i, m), triangle_shape(m, j, k)); }
+
+  //! The flip raises the smaller angle, and neither flipped triangle turns further than
+  //! acos(\p turn_cos) from the pair's normal, area-weighted so that a sliver's ill-defined
+  //! normal does not count (the flip keeps the orientation and, within the turn, the plane).
+  bool improves(double turn_cos) const {
+    if (!(after() > before() + 1e-9)) return false;
+    const Vec3 reference =
+        (OpenMesh::cross(j - i, k - i) + OpenMesh::cross(i - j, m - j)).normalize_cond();
+    for (const Vec3& n : {OpenMesh::cross(i - k, m - k), OpenMesh::cross(j - m, k - m)}) {
+      const double length = n.norm();
+      if (!(length > 0) || OpenMesh::dot(n, reference) < turn_cos * length) return false;
+    }
+    return true;
+  }
+};
+
 class Patch {
  public:
   Patch(Mesh& mesh, std::vector<FaceHandle>& faces, std::vector<VertexHandle>& new_vertices,
@@ -470,30 +501,16 @@ class Patch {
   bool try_flip(EdgeHandle e) {
     if (!interior(e) || !mesh_.is_flip_ok(e)) return false;
     const HalfedgeHandle h0 = mesh_.halfedge_handle(e, 0), h1 = mesh_.halfedge_handle(e, 1);
-    const Vec3& pi = mesh_.point(mesh_.from_vertex_handle(h0));
-    const Vec3& pj = mesh_.point(mesh_.to_vertex_handle(h0));
-    const Vec3& pk = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h0)));
-    const Vec3& pm = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h1)));
-    const double before = std::min(triangle_shape(pi, pj, pk), triangle_shape(pj, pi, pm));
-    const double after = std::min(triangle_shape(pk, pi, pm), triangle_shape(pm, pj, pk));
-    if (!(after > before + 1e-9)) return false;
+    const FlipQuad quad(mesh_, h0);
+    if (!quad.improves(flip_turn_cos_)) return false;
     // A flat patch keeps its surface: the two diagonals of the quad bound how far a flip moves
     // it (zero for coplanar triangles, a sliver's width for a sliver, the fold's depth across a
     // crease), and that may be at most a small part of the quad.
     if (options_.keep_surface) {
-      const double span = std::max((pi - pj).norm(), (pk - pm).norm());
-      if (segment_segment_distance2(pi, pj, pk, pm) >
+      const double span = std::max((quad.i - quad.j).norm(), (quad.k - quad.m).norm());
+      if (segment_segment_distance2(quad.i, quad.j, quad.k, quad.m) >
           std::pow(options_.flat_flip_tolerance * span, 2))
         return false;
-    }
-    // Area-weighted, so that a sliver's ill-defined normal does not count.
-    const Vec3 reference =
-        (OpenMesh::cross(pj - pi, pk - pi) + OpenMesh::cross(pi - pj, pm - pj)).normalize_cond();
-    // The flipped triangles (k, i, m) and (m, j, k) keep the orientation and, within the
-    // allowed turn, the plane of the two they replace.
-    for (const Vec3& n : {OpenMesh::cross(pi - pk, pm - pk), OpenMesh::cross(pj - pm, pk - pm)}) {
-      const double length = n.norm();
-      if (!(length > 0) || OpenMesh::dot(n, reference) < flip_turn_cos_ * length) return false;
     }
     mesh_.flip(e);
     touched_.push_back(mesh_.face_handle(h0));
@@ -640,26 +657,13 @@ std::size_t flip_rim_slivers(Mesh& mesh, const std::vector<FaceHandle>& patch_fa
     if (interior_sides != 1) continue;
     const EdgeHandle e = mesh.edge_handle(chord);
     if (!mesh.is_flip_ok(e)) continue;
-    const HalfedgeHandle twin = mesh.opposite_halfedge_handle(chord);
-    const Vec3& a = mesh.point(mesh.from_vertex_handle(chord));
-    const Vec3& c = mesh.point(mesh.to_vertex_handle(chord));
-    const Vec3& rim = mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(chord)));
-    const Vec3& across = mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(twin)));
-    const double before = std::min(triangle_shape(a, c, rim), triangle_shape(c, a, across));
-    if (!(before < goal)) continue;
-    if (segment_segment_distance2(a, c, rim, rim) > std::pow(options.max_width * (c - a).norm(), 2))
+    // i, j: the chord's ends; k: the rim vertex it cuts off; m: the vertex across.
+    const FlipQuad quad(mesh, chord);
+    if (!(quad.before() < goal)) continue;
+    if (segment_segment_distance2(quad.i, quad.j, quad.k, quad.k) >
+        std::pow(options.max_width * (quad.j - quad.i).norm(), 2))
       continue;
-    const double after = std::min(triangle_shape(rim, a, across), triangle_shape(across, c, rim));
-    if (!(after > before + 1e-9)) continue;
-    const Vec3 reference =
-        (OpenMesh::cross(c - a, rim - a) + OpenMesh::cross(a - c, across - c)).normalize_cond();
-    bool turns = false;
-    for (const Vec3& n :
-         {OpenMesh::cross(a - rim, across - rim), OpenMesh::cross(c - across, rim - across)}) {
-      const double length = n.norm();
-      turns = turns || !(length > 0) || OpenMesh::dot(n, reference) < turn_cos * length;
-    }
-    if (turns) continue;
+    if (!quad.improves(turn_cos)) continue;
     mesh.flip(e);
     ++flips;
   }

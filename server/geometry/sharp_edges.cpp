@@ -543,8 +543,10 @@ bool join_at_two_corners(HoleCreasePlan& plan, std::span<const std::size_t> cros
   double best_score = std::numeric_limits<double>::infinity();
   std::vector<std::size_t> best_a, best_b;
   Vec3 best_corner_a, best_corner_b;
-  for (std::size_t start = 0; start < count; ++start)
-    for (std::size_t length = 2; length + 2 <= count; ++length) {
+  // Each split once: `a` is the run that holds the first crossing.
+  for (std::size_t length = 2; length + 2 <= count; ++length)
+    for (std::size_t offset = 0; offset < length; ++offset) {
+      const std::size_t start = (count - offset) % count;
       std::vector<std::size_t> a, b;
       for (std::size_t k = 0; k < count; ++k)
         (k < length ? a : b).push_back(crossings[(start + k) % count]);
@@ -965,16 +967,19 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
 std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& plan,
                                                        double segment_length) {
   std::vector<CurveSplitInput::Curve> out;
+  // Capped so a degenerate spacing cannot ask for an absurd count (the triangulation's own size
+  // limit refuses far fewer).
+  const auto segments_along = [&](double length) {
+    return static_cast<std::size_t>(
+        std::clamp(std::ceil(length / std::max(segment_length, 1e-300)), 1.0, 65536.0));
+  };
   for (const CreaseCurve& c : plan.curves) {
     CurveSplitInput::Curve curve;
     curve.from = static_cast<int>(plan.crossings[c.from].loop_index);
     curve.to =
         c.to ? static_cast<int>(plan.crossings[*c.to].loop_index) : -1 - static_cast<int>(c.corner);
     if (c.arc) {
-      // Capped so a degenerate spacing cannot ask for an absurd count (the triangulation's own
-      // size limit refuses far fewer).
-      const std::size_t segments = static_cast<std::size_t>(
-          std::clamp(std::ceil(c.arc->length() / std::max(segment_length, 1e-300)), 1.0, 65536.0));
+      const std::size_t segments = segments_along(c.arc->length());
       for (std::size_t i = 1; i < segments; ++i)
         curve.interior.push_back(c.arc->at(static_cast<double>(i) / segments));
     } else {
@@ -991,8 +996,7 @@ std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& pla
     link.from = -1 - static_cast<int>(a);
     link.to = -1 - static_cast<int>(b);
     const Vec3 start = plan.corners[a], end = plan.corners[b];
-    const std::size_t segments = static_cast<std::size_t>(std::clamp(
-        std::ceil((end - start).norm() / std::max(segment_length, 1e-300)), 1.0, 65536.0));
+    const std::size_t segments = segments_along((end - start).norm());
     for (std::size_t i = 1; i < segments; ++i)
       link.interior.push_back(start + (static_cast<double>(i) / segments) * (end - start));
     out.push_back(std::move(link));

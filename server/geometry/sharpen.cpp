@@ -88,16 +88,25 @@ void fill_split(Mesh& mesh, const Hole& hole, const HoleCreasePlan& plan,
   result.ok = true;
 }
 
-//! The crease's tangent at rim vertex \p at pointing along it towards \p pick, where \p pick
-//! lies on a crease from \p at (crease_tangent_towards with the options' angle and tolerance and
-//! the automatic plan's fit length, so a pair picked on the creases it pairs gets its curve).
+//! The crease from rim vertex \p at that \p pick lies on, its tangent pointing towards the pick
+//! and its bend (crease_shape_towards with the options' angle and tolerance and the automatic
+//! plan's fit length, so a pair picked on the creases it pairs gets its curve).
+std::optional<CreaseShape> picked_crease_shape(const Mesh& mesh, VertexHandle at, const Vec3& pick,
+                                               double perimeter, double mean_edge_length,
+                                               const SharpenOptions& options) {
+  if (!at.is_valid()) return std::nullopt;
+  return crease_shape_towards(
+      mesh, at, pick, options.crease_angle_deg, options.crease_pick_tolerance * mean_edge_length,
+      crease_fit_length(perimeter, mean_edge_length, CreaseOptions{}.fit_length));
+}
+
+//! The tangent of picked_crease_shape.
 std::optional<Vec3> crease_direction(const Mesh& mesh, VertexHandle at, const Vec3& pick,
                                      double perimeter, double mean_edge_length,
                                      const SharpenOptions& options) {
-  if (!at.is_valid()) return std::nullopt;
-  return crease_tangent_towards(
-      mesh, at, pick, options.crease_angle_deg, options.crease_pick_tolerance * mean_edge_length,
-      crease_fit_length(perimeter, mean_edge_length, CreaseOptions{}.fit_length));
+  const auto shape = picked_crease_shape(mesh, at, pick, perimeter, mean_edge_length, options);
+  if (!shape) return std::nullopt;
+  return shape->tangent;
 }
 
 //! The circular arc that the creases picked at rim vertices \p from (towards \p pick_from) and
@@ -109,13 +118,10 @@ std::optional<CreaseArc> picked_crease_arc(const Mesh& mesh, const Hole& hole, s
                                            const Vec3& pick_from, std::size_t to,
                                            const Vec3& pick_to, const SharpenOptions& options) {
   const CreaseOptions& plan = options.fill.creases;
-  const double fit_length =
-      crease_fit_length(hole.perimeter, hole.mean_edge_length, CreaseOptions{}.fit_length);
-  const double tolerance = options.crease_pick_tolerance * hole.mean_edge_length;
   const auto crossing = [&](std::size_t loop_index,
                             const Vec3& pick) -> std::optional<CreaseCrossing> {
-    const auto shape = crease_shape_towards(mesh, hole.loop[loop_index], pick,
-                                            options.crease_angle_deg, tolerance, fit_length);
+    const auto shape = picked_crease_shape(mesh, hole.loop[loop_index], pick, hole.perimeter,
+                                           hole.mean_edge_length, options);
     if (!shape) return std::nullopt;
     CreaseCrossing c;
     c.loop_index = loop_index;
@@ -382,11 +388,8 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
     if (options.tangents == PickTangents::Crease) {
       // The crease's bend too: creases that curve into their corner meet where they bend to
       // (join_at_corners), not where their tangent lines cross.
-      const auto shape = crease_shape_towards(
-          mesh, c.vertex, *far, options.crease_angle_deg,
-          options.crease_pick_tolerance * hole.mean_edge_length,
-          crease_fit_length(hole.perimeter, hole.mean_edge_length, CreaseOptions{}.fit_length));
-      if (shape) {
+      if (const auto shape = picked_crease_shape(mesh, c.vertex, *far, hole.perimeter,
+                                                 hole.mean_edge_length, options)) {
         outward = shape->tangent;
         c.curvature = shape->curvature;
       }

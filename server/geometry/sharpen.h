@@ -117,7 +117,8 @@ struct CreasePick {
 };
 
 //! What an operator picked for one hole: curves through it (P1..P4 each, as the thesis picks
-//! one), and the creases of a corner inside it (none, or three or more).
+//! one), and the creases that meet inside it (none, or three or more: at one corner, or four or
+//! more at two joined by a crease, as join_at_corners decides).
 struct PickedCreases {
   std::vector<HermitePoints> curves;
   std::vector<CreasePick> corner;
