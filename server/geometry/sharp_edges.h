@@ -103,6 +103,9 @@ struct CreaseCrossing {
   //! Curvature vector of the crease at the rim (κ times the unit normal towards the centre of
   //! its osculating circle), from the same fit as the tangent.
   Vec3 curvature{0, 0, 0};
+  //! The inward tangent of the same fit as `curvature` (nearer the rim than `inward`): the crease
+  //! continued into the hole as p + s·t + ½s²κ. Zero where the crease has no fit of its own.
+  Vec3 bend_inward{0, 0, 0};
   //! The crease's first points from the rim (position first) over which the curvature was
   //! fitted: a circular arc through two crossings is fitted to both ends' points.
   std::vector<Vec3> near_rim;
@@ -213,8 +216,10 @@ std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, co
 //! measures it: for picks on a curved crease (a ring), so that two picked ends can be joined by
 //! the arc both continue (crease_arc_between) instead of a Hermite curve.
 struct CreaseShape {
-  Vec3 tangent{0, 0, 0};       //!< unit, from the rim along the crease towards the pick
-  Vec3 curvature{0, 0, 0};     //!< κ·N at the rim
+  Vec3 tangent{0, 0, 0};    //!< unit, from the rim along the crease towards the pick
+  Vec3 curvature{0, 0, 0};  //!< κ·N at the rim
+  //! The tangent of the same short fit as `curvature`: with it, the crease's parabola at the rim.
+  Vec3 bend_tangent{0, 0, 0};
   std::vector<Vec3> near_rim;  //!< the crease's first points from the rim (rim first)
   //! Rim edges the crease runs along before it reaches the vertex (0: it leaves it directly).
   std::size_t rim_run = 0;

@@ -129,6 +129,7 @@ std::optional<CreaseArc> picked_crease_arc(const Mesh& mesh, const Hole& hole, s
     c.position = mesh.point(c.vertex);
     c.inward = -shape->tangent;
     c.curvature = shape->curvature;
+    c.bend_inward = -shape->bend_tangent;
     c.near_rim = shape->near_rim;
     c.rim_run = shape->rim_run;
     return c;
@@ -392,6 +393,7 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
                                                  hole.mean_edge_length, options)) {
         outward = shape->tangent;
         c.curvature = shape->curvature;
+        c.bend_inward = -shape->bend_tangent;
       }
     }
     if (outward) {
