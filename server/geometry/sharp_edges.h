@@ -101,7 +101,7 @@ struct CreaseCrossing {
   Vec3 position{0, 0, 0};
   Vec3 inward{0, 0, 0};  //!< unit tangent continuing the crease into the hole
   //! Curvature vector of the crease at the rim (κ times the unit normal towards the centre of
-  //! its osculating circle), from the same fit as the tangent.
+  //! its osculating circle), fitted nearer the rim than `inward` (kCurvatureFitShare of it).
   Vec3 curvature{0, 0, 0};
   //! The inward tangent of the same fit as `curvature` (nearer the rim than `inward`): the crease
   //! continued into the hole as p + s·t + ½s²κ. Zero where the crease has no fit of its own.
