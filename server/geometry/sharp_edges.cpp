@@ -924,6 +924,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
                                            inward;
             c.on_crease = c.position;
             c.curvature = (whole.centre - c.position) / (whole.radius * whole.radius);
+            c.bend_inward = inward;  // the arc's own tangent, not the model crossing's fit
             c.near_rim = {c.position};
             c.traced_edges = 0;
             plan.crossings.push_back(c);

@@ -104,7 +104,8 @@ struct CreaseCrossing {
   //! its osculating circle), fitted nearer the rim than `inward` (kCurvatureFitShare of it).
   Vec3 curvature{0, 0, 0};
   //! The inward tangent of the same fit as `curvature` (nearer the rim than `inward`): the crease
-  //! continued into the hole as p + s·t + ½s²κ. Zero where the crease has no fit of its own.
+  //! continued into the hole as p + s·t + ½s²κ (a piece of an arc: the arc's tangent). Zero
+  //! where the crossing has no fit (`inward` is used then).
   Vec3 bend_inward{0, 0, 0};
   //! The crease's first points from the rim (position first) over which the curvature was
   //! fitted: a circular arc through two crossings is fitted to both ends' points.
