@@ -52,4 +52,19 @@ inline double min_angle_sine(const Vec3& a, const Vec3& b, const Vec3& c) {
   return min_angle_sine(a, b, c, OpenMesh::cross(b - a, c - a).norm());
 }
 
+//! cos of a triangle's largest angle (opposite the longest side); -1 for a degenerate one.
+inline double largest_angle_cos(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const double ab = (b - a).sqrnorm(), bc = (c - b).sqrnorm(), ca = (a - c).sqrnorm();
+  double x, y, z;  // z: the longest side, squared
+  if (ab >= bc && ab >= ca) {
+    z = ab, x = bc, y = ca;
+  } else if (bc >= ca) {
+    z = bc, x = ab, y = ca;
+  } else {
+    z = ca, x = ab, y = bc;
+  }
+  const double denominator = 2 * std::sqrt(x * y);
+  return denominator > 0 ? (x + y - z) / denominator : -1.0;
+}
+
 }  // namespace touchmend::geometry

@@ -78,6 +78,9 @@ MinDihedralTriangulator::MinDihedralTriangulator(std::span<const Vec3> loop,
                                                  const LiepaTriangulationOptions& options)
     : n_(static_cast<int>(loop.size())),
       external_forbidden_(options.forbidden),
+      largest_angle_cos_(options.max_angle_deg < 180
+                             ? std::cos(options.max_angle_deg * std::numbers::pi / 180)
+                             : -2.0),
       rising_angle_bound_(options.rising_angle_bound &&
                           loop.size() >= options.rising_angle_bound_min_vertices) {
   if (n_ < 3) {
@@ -107,9 +110,19 @@ MinDihedralTriangulator::MinDihedralTriangulator(std::span<const Vec3> loop,
   // Normals of the mesh triangles across each boundary edge i -> i+1 (the mesh triangle holds
   // face-edge i+1 -> i).
   boundary_normal_.resize(N);
+  // An opposite point on the edge's line (the edge's midpoint: no triangle across, as the
+  // split's curve edges) makes the edge free: its normal is zero, and every triangle bends by
+  // nothing against it. The cross product is then rounding noise, which normalised would be a
+  // random direction (a fold chosen on couplingdown_sharp #2): below a relative bound it
+  // counts as zero.
   for (int i = 0; i < n_; ++i) {
-    double area;
-    boundary_normal_[i] = unit_normal(loop[(i + 1) % N], loop[i], opposite[i], area);
+    const Vec3& a = loop[(i + 1) % N];
+    const Vec3& b = loop[i];
+    const Vec3 normal = OpenMesh::cross(b - a, opposite[i] - a);
+    const double scale = (b - a).norm() * (opposite[i] - a).norm();
+    constexpr double kCollinearSine = 1e-9;
+    boundary_normal_[i] =
+        normal.norm() > kCollinearSine * scale ? normal / normal.norm() : Vec3(0, 0, 0);
   }
   weight_.assign(N * N, Weight{});
   lambda_.assign(N * N, -1);
@@ -256,6 +269,9 @@ void MinDihedralTriangulator::solve_intervals() {
         const double bound = std::min(best.angle, angle_bound_) + kAngleTie;
         if (std::max(left.angle, right.angle) > bound) return;
         if (any_forbidden && is_forbidden(i, m, k)) return;
+        if (largest_angle_cos_ > -2 &&
+            largest_angle_cos(loop_[i], loop_[m], loop_[k]) < largest_angle_cos_)
+          return;
         // Dihedral deviation against the known neighbours across (i, m) and (m, k). First a
         // test on the unnormalised normal c, without the square root and division of
         // normalising it (angle_between(c / |c|, n) > bound, multiplied out by |c|^2): most

@@ -31,6 +31,11 @@ struct LiepaTriangulationOptions {
   //! The rising bound is used on loops of at least this many vertices: on smaller ones a
   //! failed pass costs about what the bound saves (README, "Benchmarks").
   std::size_t rising_angle_bound_min_vertices = 64;
+  //! Triangles with an angle above this (degrees) are not used, as if forbidden (ours: a region
+  //! of the crease split has free curve edges, across which the dihedral weight sees nothing,
+  //! and there the smallest area picks a needle that lies along the rim; fandisk_sharp #1's
+  //! 168° cap). 180: every triangle may be used.
+  double max_angle_deg = 180;
 };
 
 //! Key of triangle (i, m, k), i < m < k, of an n-vertex loop in
@@ -111,6 +116,7 @@ class MinDihedralTriangulator {
   std::vector<char> blocked_;          //!< n x n: pairs joined by a mesh edge outside the hole
   double min_area_ = 0;
   const std::unordered_set<std::uint64_t>* external_forbidden_ = nullptr;
+  double largest_angle_cos_ = -2;  //!< triangles whose largest angle's cos is below are not used
   bool rising_angle_bound_ = true;
   double angle_bound_ = 0;  //!< candidates bending more than this are not weighed
   std::unordered_set<std::uint64_t> forbidden_;

@@ -22,21 +22,6 @@ double triangle_shape(const Vec3& a, const Vec3& b, const Vec3& c) {
   return min_angle_sine(a, b, c);
 }
 
-//! cos of a triangle's largest angle (opposite the longest side).
-double largest_angle_cos(const Vec3& a, const Vec3& b, const Vec3& c) {
-  const double ab = (b - a).sqrnorm(), bc = (c - b).sqrnorm(), ca = (a - c).sqrnorm();
-  double x, y, z;  // z: the longest side, squared
-  if (ab >= bc && ab >= ca) {
-    z = ab, x = bc, y = ca;
-  } else if (bc >= ca) {
-    z = bc, x = ab, y = ca;
-  } else {
-    z = ca, x = ab, y = bc;
-  }
-  const double denominator = 2 * std::sqrt(x * y);
-  return denominator > 0 ? (x + y - z) / denominator : -1.0;
-}
-
 double shape_to_degrees(double shape) {
   return std::asin(std::clamp(shape, 0.0, 1.0)) / kRadian;
 }

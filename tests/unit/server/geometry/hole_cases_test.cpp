@@ -315,11 +315,11 @@ TEST(SharpCasesPicked, CreaseTangentsAreNotBiasedByAPickBesideTheCrease) {
 
 // Beyond the thesis' one curve: every crease of a hole picked. fandisk_sharp #1 is a corner cut
 // away (a crease pair and three creases meeting inside), couplingdown_sharp #2 five creases
-// meeting at two corners, couplingdown_sharp #1 three rings; one picked pair cannot follow either
-// (fandisk #1: 36.89‰ against the plain 26.98‰), every crease picked is closer than the plain fill
-// in Hausdorff and mean distance (measured: fandisk #1 9.23 / 0.59‰ against 26.98 / 4.87‰,
-// couplingdown #2 3.82 / 1.48‰ against 14.33 / 3.15‰), and fandisk's corner crease is retained
-// within 3‰ (0.90‰).
+// meeting at three corners, couplingdown_sharp #1 three rings; one picked pair cannot follow
+// either (fandisk #1: 26.98 per mille, no closer than the plain fill), every crease picked is
+// closer than the plain fill in Hausdorff and mean distance (measured: fandisk #1 9.23 / 0.71
+// against 26.98 / 4.87, couplingdown #2 5.64 / 1.43 against 14.33 / 3.15 per mille), and the
+// corners' creases are retained within 3 per mille (fandisk 0.90, couplingdown #2 2.54).
 TEST(SharpCasesPicked, EveryCreasePickedRetainsACornerCloserThanThePlainFill) {
   for (const auto& [name, case_hole] : {std::pair<std::string, std::size_t>{"fandisk_sharp", 1},
                                         {"couplingdown_sharp", 2},
@@ -335,11 +335,14 @@ TEST(SharpCasesPicked, EveryCreasePickedRetainsACornerCloserThanThePlainFill) {
     EXPECT_LT(every.score.mean_permille, s_plain->mean_permille - 0.2) << name;
     // couplingdown #1's creases are rings: each picked pair is followed as the arc both of its
     // creases continue, the boss-top ring too, whose picked rim vertices have no crease of their
-    // own (the ring runs along the rim to them; measured 6.97 / 0.59, crease 0.51 per mille,
+    // own (the ring runs along the rim to them; measured 7.91 / 0.67, crease 0.51 per mille,
     // against the plain 22.86 / 3.82 / 20.65; as Hermite curves 23.06 / 4.12 with three rings).
     if (name == "couplingdown_sharp" && case_hole == 1) {
       EXPECT_EQ(every.result.arcs, 6);
       EXPECT_EQ(every.result.crease_tangents_taken, 12);
+      EXPECT_LE(every.score.crease_permille, 3.0);
+    }
+    if (name == "couplingdown_sharp" && case_hole == 2) {
       EXPECT_LE(every.score.crease_permille, 3.0);
     }
     if (name == "fandisk_sharp") {
@@ -434,47 +437,53 @@ TEST(SharpCasesArcs, RingCreasesAreJoinedByArcsAndTheSplitIsCloser) {
 }
 
 // couplingdown_sharp #2 cuts a box edge where a chamfer meets it: the two top creases (90°)
-// curve into one corner, a vertical edge drops from it to where the chamfer's two creases (45°)
-// and the lower edge (90°) meet. No two of them pair (a 90° crease does not go on as a 45°
-// one), and one corner of all five misses them by a quarter of the hole's radius: they meet at
-// two corners joined by a crease, each where its creases, continued with the bend fitted near
-// the rim (tangent and curvature of one fit), come closest (measured: H / mean / crease 3.82 /
-// 1.48 / 3.74 per mille against the plain fill's 14.33 / 3.38 / 12.93; 8.52 / 1.45 / 8.52 with
-// the tangent of the whole fit length, which put the top corner 0.012 off; 11.42 / 2.83 / 11.30
-// with the two pairs before; one corner 20.72 / 3.03 / 20.60). The rest of the crease distance
-// is the lower corner: the chamfer's two creases end 0.012 apart (a third corner).
-TEST(SharpCasesCorners, CreasesOfABoxEdgeAndAChamferMeetAtTwoCorners) {
+// curve into corner A, a vertical edge drops from it to B, where one of the chamfer's creases
+// (45°) ends, and a short edge leads on to C, where the chamfer's other crease and the step's
+// edge (90°) meet. No two of them pair (a 90° crease does not go on as a 45° one). A and C lie
+// where their creases, continued with the bend fitted near the rim, come closest; B where its
+// crease and the two edges leaving A and C (each the meeting of the faces beside its corner's
+// outer creases) come closest. Measured: H / mean / crease 5.64 / 1.43 / 2.54 per mille against
+// the plain fill's 14.33 / 3.38 / 12.93; two corners (B and C as one) 3.82 / 1.48 / 3.74, and
+// with the tangent fitted over the whole fit length instead of the bend's 8.52 / 1.45 / 8.52.
+TEST(SharpCasesCorners, CreasesOfABoxEdgeAndAChamferMeetAtThreeCorners) {
   const auto loaded = load_case_mesh("couplingdown_sharp", 2);
   ASSERT_TRUE(loaded);
   auto& [c, mesh, holes, found] = *loaded;
   const Hole& hole = *found;
   const HoleCreasePlan plan = plan_hole_creases(mesh, hole, {});
-  ASSERT_EQ(plan.corners.size(), 2u) << plan.summary;
-  ASSERT_EQ(plan.corner_links.size(), 1u);
-  std::array<std::size_t, 2> creases_at{0, 0};
+  ASSERT_EQ(plan.corners.size(), 3u) << plan.summary;
+  ASSERT_EQ(plan.corner_links.size(), 2u);
+  std::array<std::size_t, 3> creases_at{0, 0, 0};
   for (const CreaseCurve& curve : plan.curves) {
     EXPECT_FALSE(curve.to) << "a pair: " << plan.summary;
     ++creases_at.at(curve.corner);
   }
-  EXPECT_EQ(std::min(creases_at[0], creases_at[1]), 2u);
-  EXPECT_EQ(std::max(creases_at[0], creases_at[1]), 3u);
+  // A path A - B - C: the middle corner holds both links and the one chamfer crease.
+  std::array<std::size_t, 3> links_at{0, 0, 0};
+  for (const auto& [a, b] : plan.corner_links) {
+    ++links_at.at(a);
+    ++links_at.at(b);
+  }
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(creases_at[k] + links_at[k], 3u) << "corner " << k << ": " << plan.summary;
+    EXPECT_EQ(creases_at[k], links_at[k] == 2 ? 1u : 2u) << "corner " << k;
+  }
   const auto s_plain = plain_fill_score(c, 2);
   ASSERT_TRUE(s_plain);
   const auto scored = crease_split_score(mesh, hole, holes, c, 2);
   ASSERT_TRUE(scored);
   EXPECT_LT(scored->hausdorff_permille, s_plain->hausdorff_permille - 4.0);
   EXPECT_LT(scored->mean_permille, s_plain->mean_permille - 1.5);
-  EXPECT_LT(scored->crease_permille, s_plain->crease_permille - 3.0);
-  EXPECT_LT(scored->crease_permille, 4.5);  // the top corner where the bent creases meet
+  EXPECT_LE(scored->crease_permille, 3.0);  // issue 5's bound
 }
 
 // couplingdown_sml #2: the bottom ring of a bore meets the hole at two crossings a 315 deg arc
 // apart, but the rim itself follows that ring for most of the way; only the stretch across the
 // hole is a curve (between the boundary vertices where the ring leaves the rim). The split along
-// it keeps the ring (measured: crease 3.12 against the plain fill's 12.78 per mille; the whole
+// it keeps the ring (measured: crease 2.80 against the plain fill's 12.78 per mille; the whole
 // arc laid regions over the surrounding surface and both splits crossed the mesh). The outer
 // wall's 45 deg chamfers are clean creases too: with them the fill is closer than every anchor
-// of BASELINE.md (mean 4.89 per mille, MeshLab's 6.70; H 25.49, 82.16 without them). One
+// of BASELINE.md (mean 4.80 per mille, MeshLab's 6.70; H 24.05, 82.16 without them). One
 // chamfer ring runs along the rim before it crosses; its arc meets the arc of two short chamfer
 // creases near the middle, and of two curves that meet the planner keeps the better (with both
 // the split is non-manifold and the plain fill's 10.75 per mille stood).
@@ -507,6 +516,14 @@ TEST(SharpCasesArcs, ARingTheRimFollowsIsCutToItsStretchAcrossTheHole) {
                           ? 1
                           : 0;
   EXPECT_GE(chamfer_curves, 1u) << plan.summary;
+  // A pin's base ring (radius 0.035) crosses the hole by 160° and runs along the rim for the
+  // other 200°: its bend is fitted over the first quarter turn only (over the whole rim run the
+  // parabola measured κ 5.2 for the ring's 28.6 and the arc was refused), and its ends are
+  // joined by its arc.
+  bool pin_ring = false;
+  for (const CreaseCurve& curve : plan.curves)
+    pin_ring |= curve.arc && std::abs(curve.arc->radius - 0.035) < 0.0035;
+  EXPECT_TRUE(pin_ring) << plan.summary;
   const auto s_plain = plain_fill_score(c, 2);
   ASSERT_TRUE(s_plain);
   const auto scored = crease_split_score(mesh, hole, holes, c, 2);

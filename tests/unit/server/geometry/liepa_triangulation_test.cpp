@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "server/geometry/intersection.h"
+
 namespace touchmend::geometry {
 namespace {
 
@@ -230,6 +232,67 @@ TEST(MinimumDihedralTriangulation, RisingAngleBoundMatchesOnRandomLoops) {
     const auto bounded = triangulate_min_dihedral(loop, opposite, {}, rising);
     ASSERT_EQ(bounded.ok, reference.ok) << "trial " << trial;
     EXPECT_EQ(bounded.triangles, reference.triangles) << "trial " << trial;
+  }
+}
+
+TEST(MinimumDihedralTriangulation, MaxAngleKeepsNeedlesOutWhereItCan) {
+  // Every solution under the bound keeps its triangles' angles within it; without the bound
+  // some of these loops do use a wider triangle (so the check can fail).
+  const double bound_deg = 150;
+  const double bound_cos = std::cos(bound_deg * std::numbers::pi / 180);
+  LiepaTriangulationOptions capped;
+  capped.max_angle_deg = bound_deg;
+  std::mt19937 random(20261125);
+  std::size_t wide_unbounded = 0, solved_capped = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    std::vector<Vec3> loop, opposite;
+    random_loop(5 + trial % 20, random, loop, opposite);
+    const auto widest_cos = [&](const LiepaTriangulation& t) {
+      double widest = 1;
+      for (const auto& tri : t.triangles)
+        widest = std::min(widest, largest_angle_cos(loop[tri[0]], loop[tri[1]], loop[tri[2]]));
+      return widest;
+    };
+    const auto free = triangulate_min_dihedral(loop, opposite, {});
+    ASSERT_TRUE(free.ok) << "trial " << trial;
+    if (widest_cos(free) < bound_cos) ++wide_unbounded;
+    const auto bounded = triangulate_min_dihedral(loop, opposite, {}, capped);
+    if (!bounded.ok) continue;  // no triangulation within the bound
+    ++solved_capped;
+    EXPECT_GE(widest_cos(bounded), bound_cos) << "trial " << trial;
+  }
+  EXPECT_GT(wide_unbounded, 0u);
+  EXPECT_GT(solved_capped, 30u);
+}
+
+// An edge whose opposite point lies on it (a crease split's curve edge: the region across is
+// not known yet) is free: no triangle bends against it. Its cross product is rounding noise,
+// which must not count as a direction. The dart below (couplingdown_sharp #2's wall beside
+// three corners, every edge free) has two triangulations; the one folded over the notch at
+// its reflex corner has more area, and a random normal on the free edges once made it win.
+TEST(MinimumDihedralTriangulation, EdgesWithOppositeOnThemAreFree) {
+  const std::vector<Vec3> loop{{0.2759, -0.1045, 0.1824},
+                               {0.3449, -0.1294, 0.1824},
+                               {0.3465, -0.1284, 0.1513},
+                               {0.3939, -0.1163, 0.1494}};
+  // Reversed so that the wall's outside (+y) sees the loop counter-clockwise; the result
+  // must not depend on it.
+  for (const bool reversed : {false, true}) {
+    std::vector<Vec3> points = loop;
+    if (reversed) std::reverse(points.begin(), points.end());
+    std::vector<Vec3> opposite;
+    for (std::size_t i = 0; i < points.size(); ++i)
+      opposite.push_back(0.5 * (points[i] + points[(i + 1) % points.size()]));
+    const auto t = triangulate_min_dihedral(points, opposite, {});
+    ASSERT_TRUE(t.ok) << t.failure;
+    Vec3 newell(0, 0, 0);
+    for (std::size_t i = 0; i < points.size(); ++i)
+      newell += OpenMesh::cross(points[i], points[(i + 1) % points.size()]);
+    for (const auto& tri : t.triangles) {
+      const Vec3 n =
+          OpenMesh::cross(points[tri[1]] - points[tri[0]], points[tri[2]] - points[tri[0]]);
+      EXPECT_GT(OpenMesh::dot(n, newell), 0) << "a folded triangle, reversed " << reversed;
+    }
   }
 }
 
