@@ -148,11 +148,17 @@ CreaseFit fit_crease(const std::vector<Vec3>& points, double fit_length, std::si
   return fit;
 }
 
+//! The crease's bend by the rim: tangent and curvature fitted over kCurvatureFitShare of \p
+//! fit_length (at least three points), up to a quarter turn (kMaxBendFitTurn).
+CreaseFit fit_bend(const std::vector<Vec3>& polyline, double fit_length) {
+  return fit_crease(polyline, kCurvatureFitShare * fit_length, 3, kMaxBendFitTurn);
+}
+
 //! A traced crease's direction (fitted over \p fit_length) and its bend by the rim, which is
 //! measured nearer the rim than the direction: over the whole length a bore's rim, a few edges
 //! long, is averaged with the straight crease it runs into.
 CreaseShape shape_of_crease(const std::vector<Vec3>& polyline, double fit_length) {
-  const CreaseFit bend = fit_crease(polyline, kCurvatureFitShare * fit_length, 3, kMaxBendFitTurn);
+  const CreaseFit bend = fit_bend(polyline, fit_length);
   return {fit_crease(polyline, fit_length).tangent, bend.curvature, bend.tangent,
           std::vector<Vec3>(polyline.begin(),
                             polyline.begin() + static_cast<std::ptrdiff_t>(bend.points_used + 1))};
@@ -165,7 +171,7 @@ CreaseShape shape_of_crease(const std::vector<Vec3>& polyline, double fit_length
 bool continues_crease(const std::vector<Vec3>& outward, const Vec3& q, double fit_length,
                       double edge_length) {
   if (outward.size() < 2) return false;
-  const CreaseFit fit = fit_crease(outward, kCurvatureFitShare * fit_length, 3);
+  const CreaseFit fit = fit_bend(outward, fit_length);
   const Vec3& p = outward[0];
   const double s = (q - p).norm();
   const Vec3 predicted = p - s * fit.tangent + 0.5 * s * s * fit.curvature;
@@ -499,6 +505,18 @@ Vec3 corner_of_bent_creases(const HoleCreasePlan& plan, std::span<const std::siz
   return corner;
 }
 
+//! The corner of a run of creases: the point nearest their tangent lines (corner_ahead_of),
+//! moved to where the bent creases come closest (corner_of_bent_creases), if \p near_hole.
+std::optional<Vec3> corner_of_run(const HoleCreasePlan& plan, std::span<const std::size_t> run,
+                                  double line_tolerance,
+                                  const std::function<bool(const Vec3&)>& near_hole) {
+  const std::optional<Vec3> start = corner_ahead_of(plan, run, line_tolerance);
+  if (!start) return std::nullopt;
+  const Vec3 corner = corner_of_bent_creases(plan, run, *start);
+  if (!near_hole(corner)) return std::nullopt;
+  return corner;
+}
+
 //! How far \p corner lies from the farthest of the bent creases of \p crossings.
 double farthest_bent_crease(const HoleCreasePlan& plan, std::span<const std::size_t> crossings,
                             const Vec3& corner) {
@@ -566,12 +584,9 @@ bool join_at_two_corners(HoleCreasePlan& plan, std::span<const std::size_t> cros
       std::vector<std::size_t> a, b;
       for (std::size_t k = 0; k < count; ++k)
         (k < length ? a : b).push_back(crossings[(start + k) % count]);
-      std::optional<Vec3> ca = corner_ahead_of(plan, a, line_tolerance);
-      std::optional<Vec3> cb = corner_ahead_of(plan, b, line_tolerance);
+      const std::optional<Vec3> ca = corner_of_run(plan, a, line_tolerance, near_hole);
+      const std::optional<Vec3> cb = corner_of_run(plan, b, line_tolerance, near_hole);
       if (!ca || !cb) continue;
-      *ca = corner_of_bent_creases(plan, a, *ca);
-      *cb = corner_of_bent_creases(plan, b, *cb);
-      if (!near_hole(*ca) || !near_hole(*cb)) continue;
       const double score =
           std::max(farthest_bent_crease(plan, a, *ca), farthest_bent_crease(plan, b, *cb));
       if (score < best_score) {
@@ -653,12 +668,11 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
            : k < length_a + length_b ? split.b
                                      : split.c)
               .push_back(crossings[(start + k) % count]);
-        std::optional<Vec3> ca = corner_ahead_of(plan, split.a, line_tolerance);
-        std::optional<Vec3> cc = corner_ahead_of(plan, split.c, line_tolerance);
+        const std::optional<Vec3> ca = corner_of_run(plan, split.a, line_tolerance, near_hole);
+        const std::optional<Vec3> cc = corner_of_run(plan, split.c, line_tolerance, near_hole);
         if (!ca || !cc) continue;
-        split.corner_a = corner_of_bent_creases(plan, split.a, *ca);
-        split.corner_c = corner_of_bent_creases(plan, split.c, *cc);
-        if (!near_hole(split.corner_a) || !near_hole(split.corner_c)) continue;
+        split.corner_a = *ca;
+        split.corner_c = *cc;
         // Where b's creases head (their crossings' centroid): the links leave towards it.
         Vec3 towards(0, 0, 0);
         for (const std::size_t i : split.b) towards += plan.crossings[i].position;
@@ -854,7 +868,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   // edge of the mesh at j: a crease that runs along the rim and then leaves it outwards (the
   // fitted continuation of a curved one may still point a little into the hole).
   const auto continues_outside = [&](std::size_t j, const std::vector<Vec3>& polyline) {
-    const Vec3 ahead = -fit_crease(polyline, kCurvatureFitShare * fit_length, 3).tangent;
+    const Vec3 ahead = -fit_bend(polyline, fit_length).tangent;
     for (const HalfedgeHandle o : mesh.voh_range(hole.loop[j])) {
       if (!is_sharp(normals, o, weak_angle)) continue;
       const Vec3 d = (mesh.point(mesh.to_vertex_handle(o)) - polyline[0]).normalize_cond();
@@ -1112,12 +1126,14 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   plan.unmatched = left;
   plan.summary = fmt::format("{} crease crossings, {} curves{}{}", plan.crossings.size(),
                              plan.curves.size() + plan.corner_links.size(),
-                             plan.corners.size() > 1
-                                 ? fmt::format(" meeting at {} corners", plan.corners.size())
-                             : plan.corners.empty() ? ""
-                                                    : " meeting at a corner",
+                             meeting_at_corners(plan.corners.size()),
                              left.empty() ? "" : fmt::format(", {} unmatched", left.size()));
   return plan;
+}
+
+std::string meeting_at_corners(std::size_t corners) {
+  if (corners == 0) return "";
+  return corners == 1 ? " meeting at a corner" : fmt::format(" meeting at {} corners", corners);
 }
 
 std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& plan,

@@ -167,8 +167,9 @@ struct CreaseCurve {
 struct HoleCreasePlan {
   std::vector<CreaseCrossing> crossings;
   std::vector<CreaseCurve> curves;
-  //! Where creases meet inside the hole: one corner (a cube corner cut away), or two joined by
-  //! a straight crease (corner_links), each with the creases from the rim that end there.
+  //! Where creases meet inside the hole: one corner (a cube corner cut away), or two or three
+  //! in a row joined by straight creases (corner_links), each with the creases from the rim
+  //! that end there.
   std::vector<Vec3> corners;
   std::vector<std::pair<std::size_t, std::size_t>> corner_links;
   std::vector<std::size_t> unmatched;  //!< crossings that no curve uses
@@ -183,6 +184,9 @@ double crease_fit_length(double perimeter, double mean_edge_length, double fit_l
 HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
                                  const CreaseOptions& options = {});
 
+//! " meeting at a corner", " meeting at N corners", or nothing for none: for plan summaries.
+std::string meeting_at_corners(std::size_t corners);
+
 //! Extends the creases of \p crossings (indices into plan.crossings, three or more) to a common
 //! corner: the least-squares nearest point to their tangent lines, which must lie ahead of every
 //! crossing and within \p line_tolerance of every line. On success appends the corner to
@@ -193,10 +197,11 @@ bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings
 
 //! Joins the creases of \p crossings (three or more) inside the hole: at one corner
 //! (join_at_corner, which must satisfy \p inside_hole) or, four or more, at two corners joined
-//! by a straight crease, each run of creases contiguous along the loop, their corners where the
-//! creases continued with their fitted bend come closest. Two corners are taken when their
-//! creases pass within \p two_corner_gain of the single corner's distance. Returns false, \p
-//! plan unchanged, when neither qualifies.
+//! by a straight crease, or, five or more, at three in a row joined by two; each run of creases
+//! contiguous along the loop, its corner where the creases continued with their fitted bend
+//! come closest (the middle one of three also nearest the two links). Each further corner is
+//! taken when the creases pass within \p two_corner_gain of the best plan with fewer. Returns
+//! false, \p plan unchanged, when none qualifies.
 bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                      std::span<const std::size_t> crossings, double line_tolerance,
                      double two_corner_gain, const HermiteOptions& hermite, double tolerance,

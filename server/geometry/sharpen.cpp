@@ -422,11 +422,9 @@ SharpenResult sharpen_creases(Mesh& mesh, const Hole& hole, const PickedCreases&
     }
     result.corner = plan.corners.front();
   }
-  plan.summary = fmt::format(
-      "{} picked curve{}{}", plan.curves.size(), plan.curves.size() == 1 ? "" : "s",
-      plan.corners.size() > 1 ? fmt::format(" meeting at {} corners", plan.corners.size())
-      : plan.corners.empty()  ? ""
-                              : " meeting at a corner");
+  plan.summary =
+      fmt::format("{} picked curve{}{}", plan.curves.size(), plan.curves.size() == 1 ? "" : "s",
+                  meeting_at_corners(plan.corners.size()));
   fill_split(mesh, hole, plan, options, result);
   return result;
 }

@@ -117,8 +117,8 @@ struct CreasePick {
 };
 
 //! What an operator picked for one hole: curves through it (P1..P4 each, as the thesis picks
-//! one), and the creases that meet inside it (none, or three or more: at one corner, or four or
-//! more at two joined by a crease, as join_at_corners decides).
+//! one), and the creases that meet inside it (none, or three or more: at one corner, or at two
+//! or three joined by creases, as join_at_corners decides).
 struct PickedCreases {
   std::vector<HermitePoints> curves;
   std::vector<CreasePick> corner;
