@@ -479,13 +479,19 @@ Vec3 nearest_on_bent_crease(const CreaseCrossing& c, const Vec3& x) {
   const Vec3 t = c.bend_inward.norm() > 0 ? c.bend_inward : c.inward;
   const auto at = [&](double s) { return c.position + s * t + 0.5 * s * s * c.curvature; };
   double s = std::max(0.0, OpenMesh::dot(x - c.position, t));
+  // Newton converges quadratically: once a step is this small relative to s, the next ones
+  // change nothing a double can hold.
+  const double settled = 1e-12 * ((x - c.position).norm() + s);
   for (int step = 0; step < 8; ++step) {
     // d/ds |at(s) - x|² / 2 = (at(s) - x)·(t + sκ)
     const Vec3 d = at(s) - x;
     const Vec3 velocity = t + s * c.curvature;
     const double second = velocity.sqrnorm() + OpenMesh::dot(d, c.curvature);
     if (!(second > 0)) break;
-    s = std::max(0.0, s - OpenMesh::dot(d, velocity) / second);
+    const double next = std::max(0.0, s - OpenMesh::dot(d, velocity) / second);
+    const bool done = std::abs(next - s) <= settled;
+    s = next;
+    if (done) break;
   }
   return at(s);
 }
@@ -497,23 +503,17 @@ Vec3 nearest_on_bent_crease(const CreaseCrossing& c, const Vec3& x) {
 Vec3 corner_of_bent_creases(const HoleCreasePlan& plan, std::span<const std::size_t> crossings,
                             const Vec3& start) {
   Vec3 corner = start;
+  // The projections converge linearly; they stop once a round moves the corner by less than
+  // 1e-12 of its distance from the first crease's crossing (at most 100 rounds).
+  const double settled = 1e-12 * (start - plan.crossings[crossings.front()].position).norm();
   for (int iteration = 0; iteration < 100; ++iteration) {
     Vec3 sum(0, 0, 0);
     for (const std::size_t i : crossings) sum += nearest_on_bent_crease(plan.crossings[i], corner);
-    corner = sum / static_cast<double>(crossings.size());
+    const Vec3 next = sum / static_cast<double>(crossings.size());
+    const bool done = (next - corner).norm() <= settled;
+    corner = next;
+    if (done) break;
   }
-  return corner;
-}
-
-//! The corner of a run of creases: the point nearest their tangent lines (corner_ahead_of),
-//! moved to where the bent creases come closest (corner_of_bent_creases), if \p near_hole.
-std::optional<Vec3> corner_of_run(const HoleCreasePlan& plan, std::span<const std::size_t> run,
-                                  double line_tolerance,
-                                  const std::function<bool(const Vec3&)>& near_hole) {
-  const std::optional<Vec3> start = corner_ahead_of(plan, run, line_tolerance);
-  if (!start) return std::nullopt;
-  const Vec3 corner = corner_of_bent_creases(plan, run, *start);
-  if (!near_hole(corner)) return std::nullopt;
   return corner;
 }
 
@@ -525,6 +525,53 @@ double farthest_bent_crease(const HoleCreasePlan& plan, std::span<const std::siz
     worst = std::max(worst, (nearest_on_bent_crease(plan.crossings[i], corner) - corner).norm());
   return worst;
 }
+
+//! The corners of the runs of creases contiguous along the loop, each worked out once (the two-
+//! and three-corner searches try every split of the loop, and a run recurs in many splits): the
+//! point nearest the run's tangent lines (corner_ahead_of), moved to where its bent creases
+//! come closest (corner_of_bent_creases), if that is near the hole.
+class RunCorners {
+ public:
+  struct Run {
+    std::vector<std::size_t> crossings;  //!< indices into the plan's crossings, in loop order
+    std::optional<Vec3> corner;          //!< none where the creases do not meet near the hole
+    double farthest = 0;                 //!< farthest_bent_crease from the corner
+  };
+
+  RunCorners(const HoleCreasePlan& plan, std::span<const std::size_t> crossings,
+             double line_tolerance, const std::function<bool(const Vec3&)>& near_hole)
+      : plan_(plan),
+        crossings_(crossings),
+        line_tolerance_(line_tolerance),
+        near_hole_(near_hole),
+        runs_(crossings.size() * crossings.size()) {}
+
+  //! The run of \p length (1 to the count) crossings from position \p start, modulo the count.
+  const Run& at(std::size_t start, std::size_t length) {
+    const std::size_t count = crossings_.size();
+    start %= count;
+    std::optional<Run>& slot = runs_[start * count + length - 1];
+    if (slot) return *slot;
+    Run run;
+    for (std::size_t k = 0; k < length; ++k)
+      run.crossings.push_back(crossings_[(start + k) % count]);
+    if (const std::optional<Vec3> lines = corner_ahead_of(plan_, run.crossings, line_tolerance_)) {
+      const Vec3 corner = corner_of_bent_creases(plan_, run.crossings, *lines);
+      if (near_hole_(corner)) {
+        run.corner = corner;
+        run.farthest = farthest_bent_crease(plan_, run.crossings, corner);
+      }
+    }
+    return slot.emplace(std::move(run));
+  }
+
+ private:
+  const HoleCreasePlan& plan_;
+  std::span<const std::size_t> crossings_;
+  double line_tolerance_;
+  const std::function<bool(const Vec3&)>& near_hole_;
+  std::vector<std::optional<Run>> runs_;  // by start · count + length - 1
+};
 
 //! Appends \p corner to the plan and a curve to it from each of \p crossings.
 void add_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings, const Vec3& corner,
@@ -574,34 +621,29 @@ bool join_at_two_corners(HoleCreasePlan& plan, std::span<const std::size_t> cros
                          const std::function<bool(const Vec3&)>& near_hole, double& farthest) {
   const std::size_t count = crossings.size();
   if (count < 4) return false;
+  RunCorners runs(plan, crossings, line_tolerance, near_hole);
   double best_score = std::numeric_limits<double>::infinity();
-  std::vector<std::size_t> best_a, best_b;
-  Vec3 best_corner_a, best_corner_b;
+  const RunCorners::Run* best_a = nullptr;
+  const RunCorners::Run* best_b = nullptr;
   // Each split once: `a` is the run that holds the first crossing.
   for (std::size_t length = 2; length + 2 <= count; ++length)
     for (std::size_t offset = 0; offset < length; ++offset) {
       const std::size_t start = (count - offset) % count;
-      std::vector<std::size_t> a, b;
-      for (std::size_t k = 0; k < count; ++k)
-        (k < length ? a : b).push_back(crossings[(start + k) % count]);
-      const std::optional<Vec3> ca = corner_of_run(plan, a, line_tolerance, near_hole);
-      const std::optional<Vec3> cb = corner_of_run(plan, b, line_tolerance, near_hole);
-      if (!ca || !cb) continue;
-      const double score =
-          std::max(farthest_bent_crease(plan, a, *ca), farthest_bent_crease(plan, b, *cb));
+      const RunCorners::Run& a = runs.at(start, length);
+      const RunCorners::Run& b = runs.at(start + length, count - length);
+      if (!a.corner || !b.corner) continue;
+      const double score = std::max(a.farthest, b.farthest);
       if (score < best_score) {
         best_score = score;
-        best_a = a;
-        best_b = b;
-        best_corner_a = *ca;
-        best_corner_b = *cb;
+        best_a = &a;
+        best_b = &b;
       }
     }
-  if (best_a.empty()) return false;
+  if (!best_a) return false;
   farthest = best_score;
   const std::size_t first = plan.corners.size();
-  add_corner(plan, best_a, best_corner_a, hermite, tolerance);
-  add_corner(plan, best_b, best_corner_b, hermite, tolerance);
+  add_corner(plan, best_a->crossings, *best_a->corner, hermite, tolerance);
+  add_corner(plan, best_b->crossings, *best_b->corner, hermite, tolerance);
   plan.corner_links.emplace_back(first, first + 1);
   return true;
 }
@@ -653,38 +695,35 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
   const std::size_t count = crossings.size();
   if (count < 5) return false;
   struct Split {
-    std::vector<std::size_t> a, b, c;
-    Vec3 corner_a, corner_b, corner_c;
+    const RunCorners::Run* a;
+    const RunCorners::Run* b;
+    const RunCorners::Run* c;
+    Vec3 corner_b;
   };
+  RunCorners runs(plan, crossings, line_tolerance, near_hole);
   std::optional<Split> best;
   double best_score = std::numeric_limits<double>::infinity();
   // Each split and choice of middle once: a is the run just before the middle b.
   for (std::size_t start = 0; start < count; ++start)
     for (std::size_t length_a = 2; length_a + 3 <= count; ++length_a)
       for (std::size_t length_b = 1; length_a + length_b + 2 <= count; ++length_b) {
-        Split split;
-        for (std::size_t k = 0; k < count; ++k)
-          (k < length_a              ? split.a
-           : k < length_a + length_b ? split.b
-                                     : split.c)
-              .push_back(crossings[(start + k) % count]);
-        const std::optional<Vec3> ca = corner_of_run(plan, split.a, line_tolerance, near_hole);
-        const std::optional<Vec3> cc = corner_of_run(plan, split.c, line_tolerance, near_hole);
-        if (!ca || !cc) continue;
-        split.corner_a = *ca;
-        split.corner_c = *cc;
+        const RunCorners::Run& a = runs.at(start, length_a);
+        const RunCorners::Run& b = runs.at(start + length_a, length_b);
+        const RunCorners::Run& c =
+            runs.at(start + length_a + length_b, count - length_a - length_b);
+        if (!a.corner || !c.corner) continue;
         // Where b's creases head (their crossings' centroid): the links leave towards it.
         Vec3 towards(0, 0, 0);
-        for (const std::size_t i : split.b) towards += plan.crossings[i].position;
-        towards /= static_cast<double>(split.b.size());
-        const auto link_a = edge_of_outer_faces(mesh, hole, plan, split.a, split.corner_a, towards);
-        const auto link_c = edge_of_outer_faces(mesh, hole, plan, split.c, split.corner_c, towards);
+        for (const std::size_t i : b.crossings) towards += plan.crossings[i].position;
+        towards /= static_cast<double>(b.crossings.size());
+        const auto link_a = edge_of_outer_faces(mesh, hole, plan, a.crossings, *a.corner, towards);
+        const auto link_c = edge_of_outer_faces(mesh, hole, plan, c.crossings, *c.corner, towards);
         if (!link_a || !link_c) continue;
         // B: the bent creases of its run and the two links, from the point nearest all of
         // their lines.
-        std::vector<Vec3> origins{split.corner_a, split.corner_c};
+        std::vector<Vec3> origins{*a.corner, *c.corner};
         std::vector<Vec3> directions{*link_a, *link_c};
-        for (const std::size_t i : split.b) {
+        for (const std::size_t i : b.crossings) {
           origins.push_back(plan.crossings[i].position);
           directions.push_back(plan.crossings[i].inward);
         }
@@ -695,32 +734,35 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
                  std::max(0.0, OpenMesh::dot(x - origins[k], directions[k])) * directions[k];
         };
         Vec3 corner_b = *start_b;
+        // As corner_of_bent_creases: until a round moves B by less than 1e-12 of its
+        // distance from A.
+        const double settled = 1e-12 * (*start_b - *a.corner).norm();
         for (int iteration = 0; iteration < 100; ++iteration) {
           Vec3 sum = on_link(0, corner_b) + on_link(1, corner_b);
-          for (const std::size_t i : split.b)
+          for (const std::size_t i : b.crossings)
             sum += nearest_on_bent_crease(plan.crossings[i], corner_b);
-          corner_b = sum / static_cast<double>(split.b.size() + 2);
+          const Vec3 next = sum / static_cast<double>(b.crossings.size() + 2);
+          const bool done = (next - corner_b).norm() <= settled;
+          corner_b = next;
+          if (done) break;
         }
-        if (!near_hole(corner_b) || !(OpenMesh::dot(corner_b - split.corner_a, *link_a) > 0) ||
-            !(OpenMesh::dot(corner_b - split.corner_c, *link_c) > 0))
+        if (!near_hole(corner_b) || !(OpenMesh::dot(corner_b - *a.corner, *link_a) > 0) ||
+            !(OpenMesh::dot(corner_b - *c.corner, *link_c) > 0))
           continue;
-        const double score = std::max({farthest_bent_crease(plan, split.a, split.corner_a),
-                                       farthest_bent_crease(plan, split.c, split.corner_c),
-                                       farthest_bent_crease(plan, split.b, corner_b),
-                                       (on_link(0, corner_b) - corner_b).norm(),
-                                       (on_link(1, corner_b) - corner_b).norm()});
+        const double score = std::max(
+            {a.farthest, c.farthest, farthest_bent_crease(plan, b.crossings, corner_b),
+             (on_link(0, corner_b) - corner_b).norm(), (on_link(1, corner_b) - corner_b).norm()});
         if (score < best_score) {
           best_score = score;
-          split.corner_b = corner_b;
-          best = std::move(split);
+          best = Split{&a, &b, &c, corner_b};
         }
       }
   if (!best) return false;
   farthest = best_score;
   const std::size_t first = plan.corners.size();
-  add_corner(plan, best->a, best->corner_a, hermite, tolerance);
-  add_corner(plan, best->b, best->corner_b, hermite, tolerance);
-  add_corner(plan, best->c, best->corner_c, hermite, tolerance);
+  add_corner(plan, best->a->crossings, *best->a->corner, hermite, tolerance);
+  add_corner(plan, best->b->crossings, best->corner_b, hermite, tolerance);
+  add_corner(plan, best->c->crossings, *best->c->corner, hermite, tolerance);
   plan.corner_links.emplace_back(first, first + 1);
   plan.corner_links.emplace_back(first + 1, first + 2);
   return true;
