@@ -1101,10 +1101,11 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         continue;
       }
       if (method == FillMethod::CreaseSplit) {
-        attempt.crease_curves = creases->curves.size();
+        // The straight creases between corners are split along as well.
+        attempt.crease_curves = creases->curves.size() + creases->corner_links.size();
         attempt.shape_reason =
-            fmt::format("split along {} crease curve{} ({})", creases->curves.size(),
-                        creases->curves.size() == 1 ? "" : "s", creases->summary);
+            fmt::format("split along {} crease curve{} ({})", attempt.crease_curves,
+                        attempt.crease_curves == 1 ? "" : "s", creases->summary);
       } else {
         attempt.shape_reason = shape_reason;
       }

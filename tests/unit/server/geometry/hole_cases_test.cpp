@@ -393,7 +393,8 @@ TEST(HoleCaseQuality, CapsLeftUnderFifteenDegreesAreMended) {
 std::optional<testing::HoleScore> crease_split_score(Mesh& mesh, const Hole& hole,
                                                      const std::vector<Hole>& holes,
                                                      const testing::HoleCase& c,
-                                                     std::size_t case_hole) {
+                                                     std::size_t case_hole,
+                                                     std::optional<std::size_t> curves = {}) {
   FillOptions options;
   options.sharp = SharpMode::Auto;
   const testing::Snapshot before = testing::take_snapshot(mesh);
@@ -401,6 +402,9 @@ std::optional<testing::HoleScore> crease_split_score(Mesh& mesh, const Hole& hol
   EXPECT_TRUE(r.filled) << r.reason;
   if (!r.filled) return std::nullopt;
   EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  if (curves) {
+    EXPECT_EQ(r.crease_curves, *curves) << r.shape_reason;
+  }
   EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
   return testing::score_fill(mesh, r, c, c.holes.at(case_hole));
 }
@@ -476,7 +480,9 @@ TEST(SharpCasesCorners, CreasesOfABoxEdgeAndAChamferMeetAtThreeCorners) {
   }
   const auto s_plain = plain_fill_score(c, 2);
   ASSERT_TRUE(s_plain);
-  const auto scored = crease_split_score(mesh, hole, holes, c, 2);
+  // The report counts every curve the patch is split along: the creases and the two links.
+  const auto scored =
+      crease_split_score(mesh, hole, holes, c, 2, plan.curves.size() + plan.corner_links.size());
   ASSERT_TRUE(scored);
   EXPECT_LT(scored->hausdorff_permille, s_plain->hausdorff_permille - 4.0);
   EXPECT_LT(scored->mean_permille, s_plain->mean_permille - 1.5);
