@@ -1106,6 +1106,10 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         attempt.shape_reason =
             fmt::format("split along {} crease curve{} ({})", attempt.crease_curves,
                         attempt.crease_curves == 1 ? "" : "s", creases->summary);
+      } else if (step.fallback) {
+        // The reason the faired shape was chosen would read as the flat patch's own.
+        attempt.shape_reason =
+            fmt::format("the faired shape chosen for {} was refused", shape_reason);
       } else {
         attempt.shape_reason = shape_reason;
       }

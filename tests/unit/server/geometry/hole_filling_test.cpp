@@ -118,6 +118,22 @@ TEST(FillHole, HoleOnASphereIsFairedBackOntoIt) {
   EXPECT_GT(worst_radius_error(flat_run), 3 * worst_radius_error(plain_run));
 }
 
+// A cube with its whole top face cut away: the walls around the hole turn by 90 deg, so the
+// auto shape asks for fairing, but the four-corner hole has no vertex to fair and the patch is
+// flat. The report says that the faired shape was refused, not only why it was chosen.
+TEST(FillHole, AFlatFallbackSaysTheFairedShapeWasRefused) {
+  const MeshSoup s = remove_faces(testing::cube(1), [](const Vec3& c) { return c[2] > 0.99; });
+  const FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Flat) << r.shape_reason;
+  EXPECT_EQ(r.faces_added, 2u);
+  EXPECT_NE(r.shape_reason.find("was refused"), std::string::npos) << r.shape_reason;
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings.front().find("filled flat instead"), std::string::npos) << r.warnings[0];
+}
+
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
   const MeshSoup s = testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2);
   FillOptions plain;  // without crease retaining: the auto shape alone
