@@ -496,25 +496,38 @@ Vec3 nearest_on_bent_crease(const CreaseCrossing& c, const Vec3& x) {
   return at(s);
 }
 
-//! Where the bent creases (nearest_on_bent_crease) of \p crossings come closest to a common
-//! point: alternating projections from \p start (the point nearest their tangent lines). A
-//! crease that curves into a corner (couplingdown_sharp #2's top edges) misses it along its
-//! tangent line by a third of the hole's radius.
-Vec3 corner_of_bent_creases(const HoleCreasePlan& plan, std::span<const std::size_t> crossings,
-                            const Vec3& start) {
-  Vec3 corner = start;
-  // The projections converge linearly; they stop once a round moves the corner by less than
-  // 1e-12 of its distance from the first crease's crossing (at most 100 rounds).
-  const double settled = 1e-12 * (start - plan.crossings[crossings.front()].position).norm();
+//! The point that is the mean of its own projections (onto bent creases, links), from \p start:
+//! alternating projections, \p sum_of_projections(x) returning the sum of the \p count
+//! projections of x. They converge linearly; they stop once a round moves the point by less
+//! than 1e-12 of \p scale (at most 100 rounds).
+template <typename SumOfProjections>
+Vec3 mean_of_projections(const Vec3& start, std::size_t count, double scale,
+                         SumOfProjections&& sum_of_projections) {
+  Vec3 x = start;
+  const double settled = 1e-12 * scale;
   for (int iteration = 0; iteration < 100; ++iteration) {
-    Vec3 sum(0, 0, 0);
-    for (const std::size_t i : crossings) sum += nearest_on_bent_crease(plan.crossings[i], corner);
-    const Vec3 next = sum / static_cast<double>(crossings.size());
-    const bool done = (next - corner).norm() <= settled;
-    corner = next;
+    const Vec3 next = sum_of_projections(x) / static_cast<double>(count);
+    const bool done = (next - x).norm() <= settled;
+    x = next;
     if (done) break;
   }
-  return corner;
+  return x;
+}
+
+//! Where the bent creases (nearest_on_bent_crease) of \p crossings come closest to a common
+//! point: mean_of_projections from \p start (the point nearest their tangent lines). A crease
+//! that curves into a corner (couplingdown_sharp #2's top edges) misses it along its tangent
+//! line by a third of the hole's radius.
+Vec3 corner_of_bent_creases(const HoleCreasePlan& plan, std::span<const std::size_t> crossings,
+                            const Vec3& start) {
+  return mean_of_projections(start, crossings.size(),
+                             (start - plan.crossings[crossings.front()].position).norm(),
+                             [&](const Vec3& x) {
+                               Vec3 sum(0, 0, 0);
+                               for (const std::size_t i : crossings)
+                                 sum += nearest_on_bent_crease(plan.crossings[i], x);
+                               return sum;
+                             });
 }
 
 //! How far \p corner lies from the farthest of the bent creases of \p crossings.
@@ -733,19 +746,14 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
           return origins[k] +
                  std::max(0.0, OpenMesh::dot(x - origins[k], directions[k])) * directions[k];
         };
-        Vec3 corner_b = *start_b;
-        // As corner_of_bent_creases: until a round moves B by less than 1e-12 of its
-        // distance from A.
-        const double settled = 1e-12 * (*start_b - *a.corner).norm();
-        for (int iteration = 0; iteration < 100; ++iteration) {
-          Vec3 sum = on_link(0, corner_b) + on_link(1, corner_b);
-          for (const std::size_t i : b.crossings)
-            sum += nearest_on_bent_crease(plan.crossings[i], corner_b);
-          const Vec3 next = sum / static_cast<double>(b.crossings.size() + 2);
-          const bool done = (next - corner_b).norm() <= settled;
-          corner_b = next;
-          if (done) break;
-        }
+        // Scaled by B's distance from A.
+        const Vec3 corner_b = mean_of_projections(
+            *start_b, b.crossings.size() + 2, (*start_b - *a.corner).norm(), [&](const Vec3& x) {
+              Vec3 sum = on_link(0, x) + on_link(1, x);
+              for (const std::size_t k : b.crossings)
+                sum += nearest_on_bent_crease(plan.crossings[k], x);
+              return sum;
+            });
         if (!near_hole(corner_b) || !(OpenMesh::dot(corner_b - *a.corner, *link_a) > 0) ||
             !(OpenMesh::dot(corner_b - *c.corner, *link_c) > 0))
           continue;
