@@ -648,8 +648,9 @@ constexpr double kRescueGoalDeg = 25.0;
 //!  - faired: fair, mend the faired triangles (3D flips, tangential moves, bisections), then
 //!    fair again with the mended connectivity.
 //! Returns why the faired shape was refused (a balloon, a singular system), or an empty string.
+//! \p face_regions receives each final face's region (aligned with \p faces).
 std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHandle>& faces,
-                                std::vector<VertexHandle>& vertices,
+                                std::vector<int>& face_regions, std::vector<VertexHandle>& vertices,
                                 const std::vector<int>& face_pieces, std::size_t pieces, bool fair,
                                 bool fallback, bool collapse_early, const FillOptions& options,
                                 HoleFillReport& report) {
@@ -677,7 +678,11 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
   // Vertices that were new before the refinement (chord and curve samples) stay in `vertices`.
   const auto gather = [&] {
     faces.clear();
-    for (const auto& list : piece_faces) faces.insert(faces.end(), list.begin(), list.end());
+    face_regions.clear();
+    for (std::size_t p = 0; p < pieces; ++p) {
+      faces.insert(faces.end(), piece_faces[p].begin(), piece_faces[p].end());
+      face_regions.insert(face_regions.end(), piece_faces[p].size(), static_cast<int>(p));
+    }
     for (const auto& list : piece_vertices)
       vertices.insert(vertices.end(), list.begin(), list.end());
     for (auto& list : piece_vertices) list.clear();
@@ -1051,6 +1056,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       std::vector<FaceHandle> faces;
       std::vector<VertexHandle> vertices;
       std::vector<int> face_pieces;
+      std::vector<int> face_regions;
       std::string why;
       if (!insert_patch(mesh, hole, patch, faces, vertices, face_pieces, why)) {
         failures.push_back(fmt::format("{}: {}", to_string(method), why));
@@ -1063,8 +1069,8 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       attempt.pieces = patch.pieces;
       attempt.angles_closed = patch.angles_closed;
       std::string refused =
-          build_patch_surface(mesh, hole, faces, vertices, face_pieces, patch.pieces, fair,
-                              pass == 1, step.collapse_early, options, attempt);
+          build_patch_surface(mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces,
+                              fair, pass == 1, step.collapse_early, options, attempt);
       if (fair) last_bulge = attempt.fair_bulge;
       if (whole_hole_fairing(m, fair) &&
           attempt.fair_bulge > kClearBalloon * options.max_fair_bulge)
@@ -1072,12 +1078,25 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       // A simple hole's patch that projects injectively onto the hole's reference plane cannot
       // intersect itself (projects_injectively), so only its contacts with the rest of the
       // mesh need the triangle tests; otherwise every pair is tested.
+      // Otherwise the pairs within a region that is embedded in its own plane need no test
+      // (disk_projects_injectively: a patch split along creases folds over every plane as a
+      // whole, but its regions rarely do; couplingdown_sharp #1's check 0.24 -> 0.13 ms).
       const auto patch_intersects = [&] {
         if (hole.is_simple &&
             projects_injectively(mesh, faces,
                                  ReferenceFrame::from_normal(hole.reference_normal, hole.centroid)))
           return !find_intersections_with_rest(mesh, faces, 1, reach).empty();
-        return !find_face_intersections(mesh, faces, 1, reach).empty();
+        if (faces.empty() || face_regions.size() != faces.size())
+          return !find_face_intersections(mesh, faces, 1, reach).empty();
+        const int regions = 1 + *std::max_element(face_regions.begin(), face_regions.end());
+        std::vector<std::vector<FaceHandle>> region_faces(static_cast<std::size_t>(regions));
+        for (std::size_t i = 0; i < faces.size(); ++i)
+          region_faces[static_cast<std::size_t>(face_regions[i])].push_back(faces[i]);
+        std::vector<char> embedded(region_faces.size());
+        for (std::size_t r = 0; r < region_faces.size(); ++r)
+          embedded[r] = disk_projects_injectively(mesh, region_faces[r]) ? 1 : 0;
+        return !find_intersections_between_groups(mesh, faces, face_regions, embedded, 1, reach)
+                    .empty();
       };
       const auto check_start = Clock::now();
       const bool crosses = refused.empty() && options.check_intersections && patch_intersects();

@@ -296,11 +296,11 @@ namespace {
 //! edge of the chosen faces' box (every face meeting the box has a corner there), each nearby
 //! face's box looked up in a tree of the chosen triangles. The chosen set is usually a patch,
 //! small next to the mesh, so the tree is built over it, not over the neighbourhood.
-std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh,
-                                                                std::span<const FaceHandle> faces,
-                                                                std::size_t stop_after,
-                                                                const SearchReach& reach,
-                                                                bool test_within) {
+//! \p skip_within(i, j): whether chosen faces i and j need no test against each other.
+template <typename SkipWithin>
+std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::size_t stop_after,
+    const SearchReach& reach, bool test_within, SkipWithin&& skip_within) {
   std::vector<std::pair<FaceHandle, FaceHandle>> out;
   if (faces.empty()) return out;
   std::vector<TrianglePoints> triangles(faces.size());
@@ -340,11 +340,20 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh
   // Among the chosen faces themselves, each pair once.
   for (std::size_t i = 0; i < faces.size() && !full(); ++i)
     tree.query_box(triangle_box(triangles[i]), [&](std::uint32_t j) {
-      if (full() || j <= i) return;
+      if (full() || j <= i || skip_within(i, j)) return;
       if (triangles_intersect(triangles[i], ids[i], triangles[j], ids[j]))
         out.emplace_back(faces[i], faces[j]);
     });
   return out;
+}
+
+std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(const Mesh& mesh,
+                                                                std::span<const FaceHandle> faces,
+                                                                std::size_t stop_after,
+                                                                const SearchReach& reach,
+                                                                bool test_within) {
+  return intersections_of(mesh, faces, stop_after, reach, test_within,
+                          [](std::size_t, std::size_t) { return false; });
 }
 
 }  // namespace
@@ -435,6 +444,62 @@ bool projects_injectively(const Mesh& mesh, std::span<const FaceHandle> faces,
     if (s != sign) return false;
   }
   return true;
+}
+
+bool disk_projects_injectively(const Mesh& mesh, std::span<const FaceHandle> faces) {
+  if (faces.empty()) return false;
+  LocalSet members(2 * faces.size() + 16);
+  for (const FaceHandle f : faces) members.insert(f.idx());
+  // The boundary: halfedges of the faces whose opposite lies outside them, by start vertex.
+  LocalMap<int> next_of(4 * faces.size() + 16);  // start vertex -> end vertex
+  Vec3 normal(0, 0, 0);
+  std::size_t boundary_edges = 0;
+  int first = -1;
+  for (const FaceHandle f : faces) {
+    TrianglePoints t;
+    std::array<int, 3> ids;
+    face_corners(mesh, f, t, ids);
+    normal += OpenMesh::cross(t[1] - t[0], t[2] - t[0]);
+    for (const HalfedgeHandle h : mesh.fh_range(f)) {
+      const FaceHandle across = mesh.opposite_face_handle(h);
+      if (across.is_valid() && members.contains(across.idx())) continue;
+      const int from = mesh.from_vertex_handle(h).idx();
+      if (next_of.find(from)) return false;  // the loop passes a vertex twice
+      next_of[from] = mesh.to_vertex_handle(h).idx();
+      ++boundary_edges;
+      first = from;
+    }
+  }
+  if (boundary_edges < 3 || !(normal.norm() > 0)) return false;
+  // One loop through every boundary edge.
+  std::vector<Vec3> loop;
+  loop.reserve(boundary_edges);
+  int v = first;
+  do {
+    loop.push_back(mesh.point(VertexHandle(v)));
+    const int* next = next_of.find(v);
+    if (!next || loop.size() > boundary_edges) return false;
+    v = *next;
+  } while (v != first);
+  if (loop.size() != boundary_edges) return false;
+  const ReferenceFrame frame = ReferenceFrame::from_normal(normal.normalized(), loop.front());
+  std::vector<Point2> polygon;
+  polygon.reserve(loop.size());
+  for (const Vec3& p : loop) polygon.push_back(frame.project(p));
+  if (count_self_intersections(polygon) != 0) return false;
+  return projects_injectively(mesh, faces, frame);
+}
+
+std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_between_groups(
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::span<const int> group,
+    std::span<const char> embedded, std::size_t stop_after, const SearchReach& reach) {
+  const auto same_embedded_group = [&](std::size_t i, std::size_t j) {
+    if (i >= group.size() || j >= group.size() || group[i] != group[j] || group[i] < 0)
+      return false;
+    const auto g = static_cast<std::size_t>(group[i]);
+    return g < embedded.size() && embedded[g] != 0;
+  };
+  return intersections_of(mesh, faces, stop_after, reach, true, same_embedded_group);
 }
 
 std::vector<std::pair<FaceHandle, FaceHandle>> find_self_intersections(const Mesh& mesh,

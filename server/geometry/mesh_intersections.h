@@ -117,6 +117,20 @@ std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
 bool projects_injectively(const Mesh& mesh, std::span<const FaceHandle> faces,
                           const ReferenceFrame& frame);
 
+//! True if \p faces form a disk, their boundary edges one closed loop through distinct vertices,
+//! whose loop projects onto the plane through the faces' area-weighted normal as a simple
+//! polygon and whose faces all project there with the same strict orientation
+//! (projects_injectively): then no two of them intersect. For a region of a patch split along
+//! crease curves, which as a whole folds over every plane.
+bool disk_projects_injectively(const Mesh& mesh, std::span<const FaceHandle> faces);
+
+//! Like find_face_intersections, but two faces of \p faces in the same group are not tested
+//! against each other when that group is known not to intersect itself: \p group[i] is face
+//! i's group, and \p embedded[g] says whether group g is (disk_projects_injectively).
+std::vector<std::pair<FaceHandle, FaceHandle>> find_intersections_between_groups(
+    const Mesh& mesh, std::span<const FaceHandle> faces, std::span<const int> group,
+    std::span<const char> embedded, std::size_t stop_after, const SearchReach& reach);
+
 //! Every intersecting pair of faces of the whole mesh.
 std::vector<std::pair<FaceHandle, FaceHandle>> find_self_intersections(const Mesh& mesh,
                                                                        std::size_t stop_after = 0);

@@ -7,6 +7,7 @@
 #include <map>
 #include <numbers>
 #include <set>
+#include <utility>
 
 #include <Eigen/Dense>
 #include <fmt/format.h>
@@ -469,13 +470,25 @@ std::optional<Vec3> corner_ahead_of(const HoleCreasePlan& plan,
   return corner;
 }
 
+//! Curves whose nearest points all slide, each within this angle of the others' line, run side by
+//! side: they meet at no point (meeting_point).
+constexpr double kParallelCurvesDeg = 1.0;
+
+//! A point's nearest point on one of the curves a corner is fitted to, and the unit direction in
+//! which that nearest point slides as the point moves (the curve's tangent there); zero where it
+//! is held (a crease or link clamped at its start).
+struct CurveProjection {
+  Vec3 point;
+  Vec3 slide;
+};
+
 //! The point nearest \p x on the crease of \p c continued into the hole with the bend fitted
 //! at the rim: p + s·t + ½s²κ, s ≥ 0 (Newton from the tangent line's nearest point). t is the
 //! tangent of the same short fit as κ (bend_inward): the tangent fitted over the whole fit
 //! length is the mean direction of a curved crease's stretch, turned against its bend
 //! (couplingdown_sharp #2's top creases: 10° off, which put their corner 0.012 from the
 //! truth; 0.0035 with the bend's own tangent).
-Vec3 nearest_on_bent_crease(const CreaseCrossing& c, const Vec3& x) {
+CurveProjection project_on_bent_crease(const CreaseCrossing& c, const Vec3& x) {
   const Vec3 t = c.bend_inward.norm() > 0 ? c.bend_inward : c.inward;
   const auto at = [&](double s) { return c.position + s * t + 0.5 * s * s * c.curvature; };
   double s = std::max(0.0, OpenMesh::dot(x - c.position, t));
@@ -493,41 +506,116 @@ Vec3 nearest_on_bent_crease(const CreaseCrossing& c, const Vec3& x) {
     s = next;
     if (done) break;
   }
-  return at(s);
+  const Vec3 slide = s > 0 ? Vec3(t + s * c.curvature).normalize_cond() : Vec3(0, 0, 0);
+  return {at(s), slide};
 }
 
-//! The point that is the mean of its own projections (onto bent creases, links), from \p start:
-//! alternating projections, \p sum_of_projections(x) returning the sum of the \p count
-//! projections of x. They converge linearly; they stop once a round moves the point by less
-//! than 1e-12 of \p scale (at most 100 rounds).
-template <typename SumOfProjections>
-Vec3 mean_of_projections(const Vec3& start, std::size_t count, double scale,
-                         SumOfProjections&& sum_of_projections) {
+Vec3 nearest_on_bent_crease(const CreaseCrossing& c, const Vec3& x) {
+  return project_on_bent_crease(c, x).point;
+}
+
+//! Whether every projection slides (none is held) and all their slides lie within
+//! kParallelCurvesDeg of the first one's line.
+bool slide_along_one_line(std::span<const CurveProjection> projections) {
+  const double min_cos = std::cos(kParallelCurvesDeg * std::numbers::pi / 180.0);
+  for (const CurveProjection& p : projections)
+    if (!(p.slide.sqrnorm() > 0) ||
+        !(std::abs(OpenMesh::dot(p.slide, projections.front().slide)) >= min_cos))
+      return false;
+  return true;
+}
+
+//! The point nearest \p x on the ray from \p origin along the unit \p direction.
+CurveProjection project_on_ray(const Vec3& origin, const Vec3& direction, const Vec3& x) {
+  const double along = OpenMesh::dot(x - origin, direction);
+  if (along > 0) return {origin + along * direction, direction};
+  return {origin, Vec3(0, 0, 0)};
+}
+
+//! The point where curves come closest: the minimum of the sum of squared distances to them,
+//! from \p start; \p project(x, out) fills \p out with x's projections onto the curves. At that
+//! point x is the mean of its own projections (the gradient, 2·Σ(x − P_i(x)), vanishes), which
+//! alternating projections reach too, but linearly: 40 to over 100 rounds on couplingdown_sharp
+//! #2's corners. Gauss-Newton steps, the point nearest the curves' tangent lines at the current
+//! projections (a held projection counts as a point), reach it in a few rounds where the curves
+//! nearly meet; a step that does not lower the sum is replaced by the mean of the projections,
+//! which does. Stops once a round moves the point by less than 1e-12 of \p scale (at most 100
+//! rounds). None where every curve slides along one line at the start (none held, the slides
+//! within kParallelCurvesDeg of each other): creases that run side by side meet at no point,
+//! the sum is all but constant along them, and the rounds would creep along them to where the
+//! round limit stops them (couplingdown_sharp #2: two top creases 0.011 apart, 0.005° from
+//! parallel, had their "corner" placed by that limit; no plan took it).
+template <typename Project>
+std::optional<Vec3> meeting_point(const Vec3& start, double scale, Project&& project) {
+  std::vector<CurveProjection> at, next_at;
+  const auto spread = [](const Vec3& x, const std::vector<CurveProjection>& projections) {
+    double sum = 0;
+    for (const CurveProjection& p : projections) sum += (x - p.point).sqrnorm();
+    return sum;
+  };
+  const auto mean = [](const std::vector<CurveProjection>& projections) {
+    Vec3 sum(0, 0, 0);
+    for (const CurveProjection& p : projections) sum += p.point;
+    return sum / static_cast<double>(projections.size());
+  };
+  const auto nearest_to_tangents =
+      [](const std::vector<CurveProjection>& projections) -> std::optional<Vec3> {
+    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d r = Eigen::Vector3d::Zero();
+    for (const CurveProjection& p : projections) {
+      const Eigen::Vector3d u(p.slide[0], p.slide[1], p.slide[2]);
+      const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - u * u.transpose();
+      m += across;
+      r += across * Eigen::Vector3d(p.point[0], p.point[1], p.point[2]);
+    }
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(m);
+    // Tangent lines all nearly parallel fix no point along them.
+    if (!(ldlt.rcond() > 1e-9)) return std::nullopt;
+    const Eigen::Vector3d y = ldlt.solve(r);
+    if (!y.allFinite()) return std::nullopt;
+    return Vec3(y.x(), y.y(), y.z());
+  };
   Vec3 x = start;
+  project(x, at);
+  if (at.empty()) return std::nullopt;
+  if (slide_along_one_line(at)) return std::nullopt;
+  double sum = spread(x, at);
   const double settled = 1e-12 * scale;
-  for (int iteration = 0; iteration < 100; ++iteration) {
-    const Vec3 next = sum_of_projections(x) / static_cast<double>(count);
-    const bool done = (next - x).norm() <= settled;
-    x = next;
+  for (int round = 0; round < 100; ++round) {
+    std::optional<Vec3> next = nearest_to_tangents(at);
+    double next_sum = std::numeric_limits<double>::infinity();
+    if (next) {
+      project(*next, next_at);
+      next_sum = spread(*next, next_at);
+    }
+    // Rounding leaves the sum noisy near the minimum: a step that raises it by less is taken.
+    if (!(next_sum <= sum + 1e-14 * (sum + scale * scale))) {
+      next = mean(at);
+      project(*next, next_at);
+      next_sum = spread(*next, next_at);
+    }
+    const bool done = (*next - x).norm() <= settled;
+    x = *next;
+    std::swap(at, next_at);
+    sum = next_sum;
     if (done) break;
   }
   return x;
 }
 
 //! Where the bent creases (nearest_on_bent_crease) of \p crossings come closest to a common
-//! point: mean_of_projections from \p start (the point nearest their tangent lines). A crease
+//! point: meeting_point from \p start (the point nearest their tangent lines). A crease
 //! that curves into a corner (couplingdown_sharp #2's top edges) misses it along its tangent
 //! line by a third of the hole's radius.
-Vec3 corner_of_bent_creases(const HoleCreasePlan& plan, std::span<const std::size_t> crossings,
-                            const Vec3& start) {
-  return mean_of_projections(start, crossings.size(),
-                             (start - plan.crossings[crossings.front()].position).norm(),
-                             [&](const Vec3& x) {
-                               Vec3 sum(0, 0, 0);
-                               for (const std::size_t i : crossings)
-                                 sum += nearest_on_bent_crease(plan.crossings[i], x);
-                               return sum;
-                             });
+std::optional<Vec3> corner_of_bent_creases(const HoleCreasePlan& plan,
+                                           std::span<const std::size_t> crossings,
+                                           const Vec3& start) {
+  return meeting_point(start, (start - plan.crossings[crossings.front()].position).norm(),
+                       [&](const Vec3& x, std::vector<CurveProjection>& out) {
+                         out.clear();
+                         for (const std::size_t i : crossings)
+                           out.push_back(project_on_bent_crease(plan.crossings[i], x));
+                       });
 }
 
 //! How far \p corner lies from the farthest of the bent creases of \p crossings.
@@ -552,11 +640,11 @@ class RunCorners {
   };
 
   RunCorners(const HoleCreasePlan& plan, std::span<const std::size_t> crossings,
-             double line_tolerance, const std::function<bool(const Vec3&)>& near_hole)
+             double line_tolerance, std::function<bool(const Vec3&)> near_hole)
       : plan_(plan),
         crossings_(crossings),
         line_tolerance_(line_tolerance),
-        near_hole_(near_hole),
+        near_hole_(std::move(near_hole)),
         runs_(crossings.size() * crossings.size()) {}
 
   //! The run of \p length (1 to the count) crossings from position \p start, modulo the count.
@@ -569,10 +657,10 @@ class RunCorners {
     for (std::size_t k = 0; k < length; ++k)
       run.crossings.push_back(crossings_[(start + k) % count]);
     if (const std::optional<Vec3> lines = corner_ahead_of(plan_, run.crossings, line_tolerance_)) {
-      const Vec3 corner = corner_of_bent_creases(plan_, run.crossings, *lines);
-      if (near_hole_(corner)) {
+      const std::optional<Vec3> corner = corner_of_bent_creases(plan_, run.crossings, *lines);
+      if (corner && near_hole_(*corner)) {
         run.corner = corner;
-        run.farthest = farthest_bent_crease(plan_, run.crossings, corner);
+        run.farthest = farthest_bent_crease(plan_, run.crossings, *corner);
       }
     }
     return slot.emplace(std::move(run));
@@ -582,7 +670,7 @@ class RunCorners {
   const HoleCreasePlan& plan_;
   std::span<const std::size_t> crossings_;
   double line_tolerance_;
-  const std::function<bool(const Vec3&)>& near_hole_;
+  std::function<bool(const Vec3&)> near_hole_;
   std::vector<std::optional<Run>> runs_;  // by start · count + length - 1
 };
 
@@ -630,11 +718,10 @@ namespace {
 //! Of the splits that qualify, the one whose creases pass closest to their corners (the larger
 //! of the two corners' farthest_bent_crease) is taken; \p farthest receives that distance.
 bool join_at_two_corners(HoleCreasePlan& plan, std::span<const std::size_t> crossings,
-                         double line_tolerance, const HermiteOptions& hermite, double tolerance,
-                         const std::function<bool(const Vec3&)>& near_hole, double& farthest) {
+                         RunCorners& runs, const HermiteOptions& hermite, double tolerance,
+                         double& farthest) {
   const std::size_t count = crossings.size();
   if (count < 4) return false;
-  RunCorners runs(plan, crossings, line_tolerance, near_hole);
   double best_score = std::numeric_limits<double>::infinity();
   const RunCorners::Run* best_a = nullptr;
   const RunCorners::Run* best_b = nullptr;
@@ -702,7 +789,7 @@ std::optional<Vec3> edge_of_outer_faces(const Mesh& mesh, const Hole& hole,
 //! the two links come closest. Of the splits that qualify, the one whose creases and links pass
 //! closest to their corners is taken; \p farthest receives that distance.
 bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
-                           std::span<const std::size_t> crossings, double line_tolerance,
+                           std::span<const std::size_t> crossings, RunCorners& runs,
                            const HermiteOptions& hermite, double tolerance,
                            const std::function<bool(const Vec3&)>& near_hole, double& farthest) {
   const std::size_t count = crossings.size();
@@ -713,7 +800,6 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
     const RunCorners::Run* c;
     Vec3 corner_b;
   };
-  RunCorners runs(plan, crossings, line_tolerance, near_hole);
   std::optional<Split> best;
   double best_score = std::numeric_limits<double>::infinity();
   // Each split and choice of middle once: a is the run just before the middle b.
@@ -743,23 +829,27 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
         const std::optional<Vec3> start_b = nearest_point_to_lines(origins, directions);
         if (!start_b) continue;
         const auto on_link = [&](std::size_t k, const Vec3& x) {
-          return origins[k] +
-                 std::max(0.0, OpenMesh::dot(x - origins[k], directions[k])) * directions[k];
+          return project_on_ray(origins[k], directions[k], x);
         };
         // Scaled by B's distance from A.
-        const Vec3 corner_b = mean_of_projections(
-            *start_b, b.crossings.size() + 2, (*start_b - *a.corner).norm(), [&](const Vec3& x) {
-              Vec3 sum = on_link(0, x) + on_link(1, x);
-              for (const std::size_t k : b.crossings)
-                sum += nearest_on_bent_crease(plan.crossings[k], x);
-              return sum;
-            });
+        const std::optional<Vec3> meeting_b =
+            meeting_point(*start_b, (*start_b - *a.corner).norm(),
+                          [&](const Vec3& x, std::vector<CurveProjection>& out) {
+                            out.clear();
+                            out.push_back(on_link(0, x));
+                            out.push_back(on_link(1, x));
+                            for (const std::size_t k : b.crossings)
+                              out.push_back(project_on_bent_crease(plan.crossings[k], x));
+                          });
+        if (!meeting_b) continue;
+        const Vec3& corner_b = *meeting_b;
         if (!near_hole(corner_b) || !(OpenMesh::dot(corner_b - *a.corner, *link_a) > 0) ||
             !(OpenMesh::dot(corner_b - *c.corner, *link_c) > 0))
           continue;
-        const double score = std::max(
-            {a.farthest, c.farthest, farthest_bent_crease(plan, b.crossings, corner_b),
-             (on_link(0, corner_b) - corner_b).norm(), (on_link(1, corner_b) - corner_b).norm()});
+        const double score =
+            std::max({a.farthest, c.farthest, farthest_bent_crease(plan, b.crossings, corner_b),
+                      (on_link(0, corner_b).point - corner_b).norm(),
+                      (on_link(1, corner_b).point - corner_b).norm()});
         if (score < best_score) {
           best_score = score;
           best = Split{&a, &b, &c, corner_b};
@@ -807,11 +897,13 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
     best = std::move(one);
     best_distance = single_distance;
   }
+  // The runs' corners, worked out once for both searches (the three-corner search's end runs
+  // are the two-corner search's runs).
+  RunCorners runs(plan, crossings, line_tolerance, near_hole);
   HoleCreasePlan two = plan;
   double two_distance = 0;
   if (crossings.size() >= 4 &&
-      join_at_two_corners(two, crossings, line_tolerance, hermite, tolerance, near_hole,
-                          two_distance) &&
+      join_at_two_corners(two, crossings, runs, hermite, tolerance, two_distance) &&
       two_distance <= two_corner_gain * best_distance) {
     best = std::move(two);
     best_distance = two_distance;
@@ -819,8 +911,8 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
   HoleCreasePlan three = plan;
   double three_distance = 0;
   if (crossings.size() >= 5 &&
-      join_at_three_corners(three, mesh, hole, crossings, line_tolerance, hermite, tolerance,
-                            near_hole, three_distance) &&
+      join_at_three_corners(three, mesh, hole, crossings, runs, hermite, tolerance, near_hole,
+                            three_distance) &&
       three_distance <= two_corner_gain * best_distance) {
     best = std::move(three);
     best_distance = three_distance;

@@ -96,6 +96,73 @@ TEST(MeshIntersections, InjectiveProjectionAndTestsAgainstTheRest) {
   EXPECT_FALSE(find_face_intersections(crossing, both).empty());
 }
 
+// A region of a split patch: a disk that projects injectively onto its own plane, whatever its
+// orientation in space; not when it folds, nor when it is no disk.
+TEST(MeshIntersections, DiskProjectsInjectivelyOntoItsOwnPlane) {
+  // A wavy grid tilted 70° about x: no frame is given, the faces' mean normal is found.
+  Mesh tilted = build_mesh(testing::grid(6, 6, [](double x, double y) {
+                  return 0.3 * std::sin(x) * std::cos(y);
+                })).mesh;
+  const double c = std::cos(1.22), s = std::sin(1.22);
+  for (const VertexHandle v : tilted.vertices()) {
+    const Vec3 p = tilted.point(v);
+    tilted.set_point(v, Vec3(p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]));
+  }
+  std::vector<FaceHandle> all(tilted.faces().begin(), tilted.faces().end());
+  EXPECT_TRUE(disk_projects_injectively(tilted, all));
+  // An interior vertex folded over its neighbours.
+  Mesh folded = build_mesh(testing::grid(4, 4)).mesh;
+  for (const VertexHandle v : folded.vertices())
+    if (folded.point(v) == Vec3(2, 2, 0)) folded.set_point(v, Vec3(3.5, 2.2, 0));
+  std::vector<FaceHandle> folded_faces(folded.faces().begin(), folded.faces().end());
+  EXPECT_FALSE(disk_projects_injectively(folded, folded_faces));
+  // A ring of faces (its boundary is two loops) is no disk, flat as it is.
+  Mesh ring = build_mesh(testing::annulus(12, 1.0, 2, 0.5)).mesh;
+  std::vector<FaceHandle> ring_faces(ring.faces().begin(), ring.faces().end());
+  EXPECT_FALSE(disk_projects_injectively(ring, ring_faces));
+  // Two faces meeting only at a vertex (the grid's centre, 1 1 0): the boundary passes that
+  // vertex twice.
+  Mesh grid = build_mesh(testing::grid(2, 2)).mesh;
+  std::vector<FaceHandle> bowtie;
+  for (const FaceHandle f : grid.faces()) {
+    const Vec3 centroid = grid.calc_face_centroid(f);
+    if ((centroid - Vec3(2.0 / 3, 1.0 / 3, 0)).norm() < 1e-9 ||
+        (centroid - Vec3(5.0 / 3, 4.0 / 3, 0)).norm() < 1e-9)
+      bowtie.push_back(f);
+  }
+  ASSERT_EQ(bowtie.size(), 2u);
+  EXPECT_FALSE(disk_projects_injectively(grid, bowtie));
+  EXPECT_FALSE(disk_projects_injectively(grid, {}));
+}
+
+// Pairs within an embedded group are skipped, pairs across groups and within a group not known
+// to be embedded are tested.
+TEST(MeshIntersections, GroupsSkipOnlyTheirOwnPairs) {
+  // Two sheets that cross each other (x = 1 against z = 0).
+  MeshSoup two = testing::grid(2, 2);
+  const auto offset = static_cast<std::uint32_t>(two.points.size());
+  for (const Vec3& p : testing::grid(2, 2).points) two.points.push_back(Vec3(1, p[1], p[0] - 1));
+  for (const auto& t : testing::grid(2, 2).triangles)
+    two.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  const Mesh crossing = build_mesh(two).mesh;
+  const SearchReach reach = make_search_reach(crossing);
+  std::vector<FaceHandle> faces(crossing.faces().begin(), crossing.faces().end());
+  std::vector<int> by_sheet;
+  for (const FaceHandle f : faces) by_sheet.push_back(f.idx() < 8 ? 0 : 1);
+  const std::vector<char> both_embedded{1, 1};
+  EXPECT_FALSE(find_intersections_between_groups(crossing, faces, by_sheet, both_embedded, 0, reach)
+                   .empty());
+  // One group holding both sheets: tested when it is not known to be embedded, skipped when
+  // the caller vouches for it.
+  const std::vector<int> one_group(faces.size(), 0);
+  EXPECT_FALSE(
+      find_intersections_between_groups(crossing, faces, one_group, std::vector<char>{0}, 0, reach)
+          .empty());
+  EXPECT_TRUE(
+      find_intersections_between_groups(crossing, faces, one_group, std::vector<char>{1}, 0, reach)
+          .empty());
+}
+
 // The reach's grid of vertices and list of long faces must find exactly what a scan of every face
 // finds: on a mesh large enough to get a grid, with long faces beside fine ones, and after new
 // vertices and faces were added (as a fill adds them).
