@@ -6,10 +6,6 @@
 namespace touchmend::geometry {
 namespace {
 
-double orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  return OpenMesh::dot(OpenMesh::cross(b - a, c - a), d - a);
-}
-
 int sign(double v, double eps) {
   return v > eps ? 1 : (v < -eps ? -1 : 0);
 }
@@ -82,26 +78,33 @@ bool coplanar_triangles_overlap(const TrianglePoints& t1, const TrianglePoints& 
   return coplanar_point_in_triangle(f, c1, t2) || coplanar_point_in_triangle(f, c2, t1);
 }
 
-double scale_of(const TrianglePoints& t1, const TrianglePoints& t2) {
-  double s = 0;
-  for (const TrianglePoints* t : {&t1, &t2})
-    for (int i = 0; i < 3; ++i) s = std::max(s, ((*t)[(i + 1) % 3] - (*t)[i]).sqrnorm());
-  return std::sqrt(s);
-}
-
 }  // namespace
 
-bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const TrianglePoints& t) {
+PreparedTriangle prepare_triangle(const TrianglePoints& t, const std::array<int, 3>& ids) {
+  PreparedTriangle out;
+  out.points = t;
+  out.ids = ids;
+  out.normal = OpenMesh::cross(t[1] - t[0], t[2] - t[0]);
+  out.normal_norm = out.normal.norm();
+  if (out.normal_norm > 0) out.unit_normal = out.normal / out.normal_norm;
+  for (int i = 0; i < 3; ++i)
+    out.longest_sqr = std::max(out.longest_sqr, (t[(i + 1) % 3] - t[i]).sqrnorm());
+  out.longest = std::max({(t[1] - t[0]).norm(), (t[2] - t[0]).norm(), (t[2] - t[1]).norm()});
+  return out;
+}
+
+namespace {
+
+bool segment_intersects_prepared(const Vec3& p, const Vec3& q, const PreparedTriangle& prepared) {
   // Signed distances to the triangle's plane decide which side the ends are on; the crossing
   // point is then tested against the edges. Working with distances (not raw orientation
   // volumes) keeps the tolerance meaningful when the segment runs almost in the plane: a
   // line lying in the plane would otherwise make every volume "zero" and look like a hit.
-  const Vec3 n = OpenMesh::cross(t[1] - t[0], t[2] - t[0]);
-  const double nn = n.norm();
-  const double l =
-      std::max({(t[1] - t[0]).norm(), (t[2] - t[0]).norm(), (t[2] - t[1]).norm(), (q - p).norm()});
+  const TrianglePoints& t = prepared.points;
+  const double nn = prepared.normal_norm;
+  const double l = std::max(prepared.longest, (q - p).norm());
   if (!(nn > 1e-14 * l * l)) return false;  // degenerate triangle
-  const Vec3 nh = n / nn;
+  const Vec3& nh = prepared.unit_normal;
   const double eps = 1e-12 * l;
   const double dp = OpenMesh::dot(nh, p - t[0]), dq = OpenMesh::dot(nh, q - t[0]);
   if ((dp > eps && dq > eps) || (dp < -eps && dq < -eps)) return false;
@@ -120,27 +123,44 @@ bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const TrianglePoi
   return true;
 }
 
+//! orient3d(t[0], t[1], t[2], d), with the triangle's normal worked out once.
+double orient_to(const PreparedTriangle& t, const Vec3& d) {
+  return OpenMesh::dot(t.normal, d - t.points[0]);
+}
+
+}  // namespace
+
+bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const TrianglePoints& t) {
+  return segment_intersects_prepared(p, q, prepare_triangle(t, {-1, -2, -3}));
+}
+
 bool triangles_intersect(const TrianglePoints& t1, const std::array<int, 3>& ids1,
                          const TrianglePoints& t2, const std::array<int, 3>& ids2) {
+  return triangles_intersect(prepare_triangle(t1, ids1), prepare_triangle(t2, ids2));
+}
+
+bool triangles_intersect(const PreparedTriangle& p1, const PreparedTriangle& p2) {
+  const TrianglePoints& t1 = p1.points;
+  const TrianglePoints& t2 = p2.points;
   int shared = 0;
   int s1[3] = {-1, -1, -1}, s2[3] = {-1, -1, -1};  // position of shared corners
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      if (ids1[i] == ids2[j]) {
+      if (p1.ids[i] == p2.ids[j]) {
         s1[shared] = i;
         s2[shared] = j;
         ++shared;
       }
-  const double l = scale_of(t1, t2);
+  const double l = std::sqrt(std::max(p1.longest_sqr, p2.longest_sqr));
   const double eps = 1e-14 * l * l * l;
-  const Vec3 n1 = OpenMesh::cross(t1[1] - t1[0], t1[2] - t1[0]);
-  const Vec3 n2 = OpenMesh::cross(t2[1] - t2[0], t2[2] - t2[0]);
-  if (n1.norm() <= 1e-14 * l * l || n2.norm() <= 1e-14 * l * l) return false;  // degenerate
+  const Vec3& n1 = p1.normal;
+  if (p1.normal_norm <= 1e-14 * l * l || p2.normal_norm <= 1e-14 * l * l)
+    return false;  // degenerate
   if (shared == 3) return true;
   if (shared == 2) {
     // Only a fold-over can intersect: both coplanar, third corners on the same side.
     const int o1 = 3 - s1[0] - s1[1], o2 = 3 - s2[0] - s2[1];
-    if (sign(orient3d(t1[0], t1[1], t1[2], t2[o2]), eps) != 0) return false;
+    if (sign(orient_to(p1, t2[o2]), eps) != 0) return false;
     const Vec3& a = t1[s1[0]];
     const Vec3& b = t1[s1[1]];
     const Flat f(n1);
@@ -150,19 +170,17 @@ bool triangles_intersect(const TrianglePoints& t1, const std::array<int, 3>& ids
     const int i = s1[0], j = s2[0];
     // Quick reject: the other triangle's two free corners strictly on one side of the plane
     // means the two meet only at the shared corner (the common case for neighbours).
-    const int p1 = sign(orient3d(t1[0], t1[1], t1[2], t2[(j + 1) % 3]), eps);
-    const int p2 = sign(orient3d(t1[0], t1[1], t1[2], t2[(j + 2) % 3]), eps);
-    if (p1 != 0 && p1 == p2) return false;
-    const int q1 = sign(orient3d(t2[0], t2[1], t2[2], t1[(i + 1) % 3]), eps);
-    const int q2 = sign(orient3d(t2[0], t2[1], t2[2], t1[(i + 2) % 3]), eps);
+    const int c1 = sign(orient_to(p1, t2[(j + 1) % 3]), eps);
+    const int c2 = sign(orient_to(p1, t2[(j + 2) % 3]), eps);
+    if (c1 != 0 && c1 == c2) return false;
+    const int q1 = sign(orient_to(p2, t1[(i + 1) % 3]), eps);
+    const int q2 = sign(orient_to(p2, t1[(i + 2) % 3]), eps);
     if (q1 != 0 && q1 == q2) return false;
     // Any intersection away from the shared corner crosses an opposite edge (see header).
     const Vec3& a1 = t1[(i + 1) % 3];
     const Vec3& b1 = t1[(i + 2) % 3];
     const Vec3& a2 = t2[(j + 1) % 3];
     const Vec3& b2 = t2[(j + 2) % 3];
-    const int c1 = sign(orient3d(t1[0], t1[1], t1[2], a2), eps);
-    const int c2 = sign(orient3d(t1[0], t1[1], t1[2], b2), eps);
     if (c1 == 0 && c2 == 0) {  // coplanar fan: overlap if the wedges overlap
       // The triangles lie in their wedges at the shared corner; a line through that corner
       // along one triangle's edge with the other triangle's free corners strictly on the far
@@ -181,21 +199,21 @@ bool triangles_intersect(const TrianglePoints& t1, const std::array<int, 3>& ids
       }
       return coplanar_triangles_overlap(t1, t2, n1);
     }
-    return segment_intersects_triangle(a1, b1, t2) || segment_intersects_triangle(a2, b2, t1);
+    return segment_intersects_prepared(a1, b1, p2) || segment_intersects_prepared(a2, b2, p1);
   }
   // No shared corner: general position.
-  const int d0 = sign(orient3d(t1[0], t1[1], t1[2], t2[0]), eps);
-  const int d1 = sign(orient3d(t1[0], t1[1], t1[2], t2[1]), eps);
-  const int d2 = sign(orient3d(t1[0], t1[1], t1[2], t2[2]), eps);
+  const int d0 = sign(orient_to(p1, t2[0]), eps);
+  const int d1 = sign(orient_to(p1, t2[1]), eps);
+  const int d2 = sign(orient_to(p1, t2[2]), eps);
   if (d0 == d1 && d1 == d2 && d0 != 0) return false;
   if (d0 == 0 && d1 == 0 && d2 == 0) return coplanar_triangles_overlap(t1, t2, n1);
-  const int e0 = sign(orient3d(t2[0], t2[1], t2[2], t1[0]), eps);
-  const int e1 = sign(orient3d(t2[0], t2[1], t2[2], t1[1]), eps);
-  const int e2 = sign(orient3d(t2[0], t2[1], t2[2], t1[2]), eps);
+  const int e0 = sign(orient_to(p2, t1[0]), eps);
+  const int e1 = sign(orient_to(p2, t1[1]), eps);
+  const int e2 = sign(orient_to(p2, t1[2]), eps);
   if (e0 == e1 && e1 == e2 && e0 != 0) return false;
   for (int i = 0; i < 3; ++i) {
-    if (segment_intersects_triangle(t1[i], t1[(i + 1) % 3], t2)) return true;
-    if (segment_intersects_triangle(t2[i], t2[(i + 1) % 3], t1)) return true;
+    if (segment_intersects_prepared(t1[i], t1[(i + 1) % 3], p2)) return true;
+    if (segment_intersects_prepared(t2[i], t2[(i + 1) % 3], p1)) return true;
   }
   return false;
 }

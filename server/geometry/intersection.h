@@ -20,6 +20,21 @@ using TrianglePoints = std::array<Vec3, 3>;
 bool triangles_intersect(const TrianglePoints& t1, const std::array<int, 3>& ids1,
                          const TrianglePoints& t2, const std::array<int, 3>& ids2);
 
+//! What the pair test needs of one triangle, worked out once: a triangle tested against many
+//! (a patch triangle against the faces around it) pays for its normal and sides once. The
+//! results are exactly those of triangles_intersect on the points (the same arithmetic).
+struct PreparedTriangle {
+  TrianglePoints points;
+  std::array<int, 3> ids{};
+  Vec3 normal{0, 0, 0};       //!< (p1 - p0) x (p2 - p0)
+  double normal_norm = 0;     //!< |normal|
+  Vec3 unit_normal{0, 0, 0};  //!< normal / |normal| (where |normal| > 0)
+  double longest_sqr = 0;     //!< the longest side, squared
+  double longest = 0;         //!< the longest of |p1 - p0|, |p2 - p0|, |p2 - p1|
+};
+PreparedTriangle prepare_triangle(const TrianglePoints& t, const std::array<int, 3>& ids);
+bool triangles_intersect(const PreparedTriangle& t1, const PreparedTriangle& t2);
+
 //! Whether segment [p, q] intersects triangle t (touching counts).
 bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const TrianglePoints& t);
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "server/geometry/bvh.h"
 #include "server/geometry/intersection.h"
@@ -304,12 +305,14 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(
   std::vector<std::pair<FaceHandle, FaceHandle>> out;
   if (faces.empty()) return out;
   std::vector<TrianglePoints> triangles(faces.size());
-  std::vector<std::array<int, 3>> ids(faces.size());
+  std::vector<PreparedTriangle> prepared(faces.size());
   LocalSet chosen(faces.size() + 16);
   Box3 region;
   for (std::size_t i = 0; i < faces.size(); ++i) {
     chosen.insert(faces[i].idx());
-    face_corners(mesh, faces[i], triangles[i], ids[i]);
+    std::array<int, 3> ids;
+    face_corners(mesh, faces[i], triangles[i], ids);
+    prepared[i] = prepare_triangle(triangles[i], ids);
     region.extend(triangle_box(triangles[i]));
   }
   const double pad = 1e-9 * std::max(region.diagonal().norm(), 1e-300);
@@ -330,9 +333,11 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(
         if (chosen.contains(g.idx())) return true;
         const Box3 box = triangle_box(t);
         if (!box.intersects(region)) return true;
+        std::optional<PreparedTriangle> other;  // worked out at its first candidate
         tree.query_box(box, [&](std::uint32_t c) {
           if (full()) return;
-          if (triangles_intersect(triangles[c], ids[c], t, g_ids)) out.emplace_back(faces[c], g);
+          if (!other) other = prepare_triangle(t, g_ids);
+          if (triangles_intersect(prepared[c], *other)) out.emplace_back(faces[c], g);
         });
         return !full();
       });
@@ -341,8 +346,7 @@ std::vector<std::pair<FaceHandle, FaceHandle>> intersections_of(
   for (std::size_t i = 0; i < faces.size() && !full(); ++i)
     tree.query_box(triangle_box(triangles[i]), [&](std::uint32_t j) {
       if (full() || j <= i || skip_within(i, j)) return;
-      if (triangles_intersect(triangles[i], ids[i], triangles[j], ids[j]))
-        out.emplace_back(faces[i], faces[j]);
+      if (triangles_intersect(prepared[i], prepared[j])) out.emplace_back(faces[i], faces[j]);
     });
   return out;
 }
