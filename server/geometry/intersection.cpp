@@ -90,6 +90,9 @@ PreparedTriangle prepare_triangle(const TrianglePoints& t, const std::array<int,
   for (int i = 0; i < 3; ++i)
     out.longest_sqr = std::max(out.longest_sqr, (t[(i + 1) % 3] - t[i]).sqrnorm());
   out.longest = std::max({(t[1] - t[0]).norm(), (t[2] - t[0]).norm(), (t[2] - t[1]).norm()});
+  if (out.normal_norm > 0)
+    for (int i = 0; i < 3; ++i)
+      out.side_inward[i] = OpenMesh::cross(out.normal, t[(i + 1) % 3] - t[i]).normalize_cond();
   return out;
 }
 
@@ -121,6 +124,20 @@ bool segment_intersects_prepared(const Vec3& p, const Vec3& q, const PreparedTri
     if (OpenMesh::dot(OpenMesh::cross(e, x - t[i]), nh) < -eps * e.norm()) return false;
   }
   return true;
+}
+
+//! Whether all of \p other lies farther than \p apart beyond a side of \p t: the plane through
+//! that side perpendicular to \p t then separates the two (\p t lies on its inner side).
+bool beyond_a_side(const PreparedTriangle& t, const TrianglePoints& other, double apart) {
+  for (int i = 0; i < 3; ++i) {
+    const Vec3& inward = t.side_inward[i];
+    const Vec3& on_side = t.points[i];
+    if (OpenMesh::dot(inward, other[0] - on_side) < -apart &&
+        OpenMesh::dot(inward, other[1] - on_side) < -apart &&
+        OpenMesh::dot(inward, other[2] - on_side) < -apart)
+      return true;
+  }
+  return false;
 }
 
 //! orient3d(t[0], t[1], t[2], d), with the triangle's normal worked out once.
@@ -206,6 +223,13 @@ bool triangles_intersect(const PreparedTriangle& p1, const PreparedTriangle& p2)
   const int d1 = sign(orient_to(p1, t2[1]), eps);
   const int d2 = sign(orient_to(p1, t2[2]), eps);
   if (d0 == d1 && d1 == d2 && d0 != 0) return false;
+  // Beside each other, the two in (nearly) one plane: a side of either has all of the other
+  // beyond it. The face around a patch on a CAD part (planar, long slivers whose boxes reach
+  // far) mostly is; the tests below would take six segment tests to tell. The margin is a
+  // thousand times the tolerances below: what they count as touching is not passed over (but
+  // at the tip of a needle thinner than 0.1°, where their tolerance reaches that far).
+  const double apart = 1e-9 * l;
+  if (beyond_a_side(p1, t2, apart) || beyond_a_side(p2, t1, apart)) return false;
   if (d0 == 0 && d1 == 0 && d2 == 0) return coplanar_triangles_overlap(t1, t2, n1);
   const int e0 = sign(orient_to(p2, t1[0]), eps);
   const int e1 = sign(orient_to(p2, t1[1]), eps);

@@ -31,6 +31,9 @@ struct PreparedTriangle {
   Vec3 unit_normal{0, 0, 0};  //!< normal / |normal| (where |normal| > 0)
   double longest_sqr = 0;     //!< the longest side, squared
   double longest = 0;         //!< the longest of |p1 - p0|, |p2 - p0|, |p2 - p1|
+  //! Unit normal of the plane through side i (p_i to p_i+1) perpendicular to the triangle,
+  //! pointing into it (zero for a degenerate triangle).
+  std::array<Vec3, 3> side_inward{};
 };
 PreparedTriangle prepare_triangle(const TrianglePoints& t, const std::array<int, 3>& ids);
 bool triangles_intersect(const PreparedTriangle& t1, const PreparedTriangle& t2);

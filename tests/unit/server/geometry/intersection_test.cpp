@@ -15,6 +15,16 @@ namespace {
 
 const TrianglePoints kFloor = {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0)};
 
+//! Two 2 x 2 grids that cut through each other: z = 0 (faces 0-7) and x = 1 (faces 8-15).
+Mesh two_crossing_sheets() {
+  MeshSoup two = testing::grid(2, 2);
+  const auto offset = static_cast<std::uint32_t>(two.points.size());
+  for (const Vec3& p : testing::grid(2, 2).points) two.points.push_back(Vec3(1, p[1], p[0] - 1));
+  for (const auto& t : testing::grid(2, 2).triangles)
+    two.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  return build_mesh(two).mesh;
+}
+
 TEST(TrianglesIntersect, GeneralPosition) {
   const TrianglePoints piercing = {Vec3(0.5, 0.5, -1), Vec3(0.5, 0.5, 1), Vec3(1.5, 1.5, 1)};
   EXPECT_TRUE(triangles_intersect(kFloor, {0, 1, 2}, piercing, {3, 4, 5}));
@@ -35,6 +45,22 @@ TEST(TrianglesIntersect, SharedVertexOrEdgeIsNotAnIntersection) {
   const TrianglePoints folded = {Vec3(2, 0, 0), Vec3(0, 2, 0), Vec3(0.2, 0.2, 0)};  // folds onto it
   EXPECT_TRUE(triangles_intersect(kFloor, {0, 1, 2}, folded, {1, 2, 9}));
   EXPECT_TRUE(triangles_intersect(kFloor, {0, 1, 2}, kFloor, {0, 1, 2}));
+}
+
+// Triangles side by side in (nearly) one plane, as around a patch on a planar CAD face: apart
+// they do not intersect, whatever the rounding off the plane; touching at a corner or along a
+// side they do (touching counts), also when a margin separates everything else.
+TEST(TrianglesIntersect, SideBySideInOnePlane) {
+  const TrianglePoints apart = {Vec3(2.001, 0.5, 1e-13), Vec3(3, 0.5, -1e-13), Vec3(2.5, 1, 0)};
+  EXPECT_FALSE(triangles_intersect(kFloor, {0, 1, 2}, apart, {3, 4, 5}));
+  EXPECT_FALSE(triangles_intersect(apart, {3, 4, 5}, kFloor, {0, 1, 2}));
+  // A corner on the floor's long side (x + y = 2), the rest beyond it.
+  const TrianglePoints touching = {Vec3(1, 1, 0), Vec3(3, 1, 0.5), Vec3(1, 3, -0.5)};
+  EXPECT_TRUE(triangles_intersect(kFloor, {0, 1, 2}, touching, {3, 4, 5}));
+  EXPECT_TRUE(triangles_intersect(touching, {3, 4, 5}, kFloor, {0, 1, 2}));
+  // Across the floor's side: a sliver standing on it.
+  const TrianglePoints across = {Vec3(1.5, 0.2, 0), Vec3(3, 0.2, 0), Vec3(3, 0.3, 0)};
+  EXPECT_TRUE(triangles_intersect(kFloor, {0, 1, 2}, across, {3, 4, 5}));
 }
 
 TEST(ClosestPoint, RegionsOfTheTriangle) {
@@ -80,12 +106,7 @@ TEST(MeshIntersections, InjectiveProjectionAndTestsAgainstTheRest) {
   EXPECT_FALSE(find_self_intersections(folded).empty());
 
   // find_intersections_with_rest skips pairs inside the chosen set, not pairs with the rest.
-  MeshSoup two = testing::grid(2, 2);
-  const auto offset = static_cast<std::uint32_t>(two.points.size());
-  for (const Vec3& p : testing::grid(2, 2).points) two.points.push_back(Vec3(1, p[1], p[0] - 1));
-  for (const auto& t : testing::grid(2, 2).triangles)
-    two.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-  const Mesh crossing = build_mesh(two).mesh;
+  const Mesh crossing = two_crossing_sheets();
   std::vector<FaceHandle> first_sheet;
   for (const FaceHandle f : crossing.faces())
     if (f.idx() < 8) first_sheet.push_back(f);
@@ -138,13 +159,7 @@ TEST(MeshIntersections, DiskProjectsInjectivelyOntoItsOwnPlane) {
 // Pairs within an embedded group are skipped, pairs across groups and within a group not known
 // to be embedded are tested.
 TEST(MeshIntersections, GroupsSkipOnlyTheirOwnPairs) {
-  // Two sheets that cross each other (x = 1 against z = 0).
-  MeshSoup two = testing::grid(2, 2);
-  const auto offset = static_cast<std::uint32_t>(two.points.size());
-  for (const Vec3& p : testing::grid(2, 2).points) two.points.push_back(Vec3(1, p[1], p[0] - 1));
-  for (const auto& t : testing::grid(2, 2).triangles)
-    two.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-  const Mesh crossing = build_mesh(two).mesh;
+  const Mesh crossing = two_crossing_sheets();
   const SearchReach reach = make_search_reach(crossing);
   std::vector<FaceHandle> faces(crossing.faces().begin(), crossing.faces().end());
   std::vector<int> by_sheet;
