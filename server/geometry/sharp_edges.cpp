@@ -1121,8 +1121,20 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     const auto inside = [&](const Vec3& p, const Candidate& c) {
       return (p - found[c.a].position).norm() > near && (p - found[c.b].position).norm() > near;
     };
+    // Segments farther apart than `near` along an axis are not measured (the paths are sampled
+    // at the edge length, and most of their segments pairs lie far apart); the slack keeps every
+    // pair the distance itself might count, rounded.
+    const double apart = near * (1 + 1e-9);
+    const auto far_apart = [apart](const Vec3& p, const Vec3& q, const Vec3& u, const Vec3& v) {
+      for (int k = 0; k < 3; ++k)
+        if (std::min(u[k], v[k]) - std::max(p[k], q[k]) > apart ||
+            std::min(p[k], q[k]) - std::max(u[k], v[k]) > apart)
+          return true;
+      return false;
+    };
     for (std::size_t i = 0; i + 1 < a.size(); ++i)
       for (std::size_t j = 0; j + 1 < b.size(); ++j) {
+        if (far_apart(a[i], a[i + 1], b[j], b[j + 1])) continue;
         if (segment_segment_distance2(a[i], a[i + 1], b[j], b[j + 1]) > near * near) continue;
         if (inside(a[i], x) || inside(a[i + 1], x) || inside(b[j], y) || inside(b[j + 1], y))
           return true;
