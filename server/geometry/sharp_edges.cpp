@@ -40,17 +40,25 @@ double dihedral_deg(FaceNormals& normals, HalfedgeHandle h) {
   return std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b)) / kDeg;
 }
 
-//! Whether the dihedral angle at \p h's edge exceeds the threshold, compared as cosines (the
-//! crease tracing asks this of every edge around each vertex it visits; no trigonometry). A
-//! degenerate face has no normal and makes no crease.
-bool is_sharp(FaceNormals& normals, HalfedgeHandle h, double threshold_deg) {
+//! A crease threshold and its cosine, worked out once: is_sharp asks it of every edge around
+//! each vertex a crease search visits.
+struct SharpAngle {
+  explicit SharpAngle(double threshold_deg)
+      : degrees(threshold_deg), cosine(std::cos(threshold_deg * kDeg)) {}
+  double degrees;
+  double cosine;
+};
+
+//! Whether the dihedral angle at \p h's edge exceeds the threshold, compared as cosines (no
+//! trigonometry per edge). A degenerate face has no normal and makes no crease.
+bool is_sharp(FaceNormals& normals, HalfedgeHandle h, const SharpAngle& threshold) {
   const Mesh& mesh = normals.mesh();
   if (mesh.is_boundary(mesh.edge_handle(h))) return false;
-  if (threshold_deg >= 180.0) return false;
+  if (threshold.degrees >= 180.0) return false;
   const Vec3 a = normals(mesh.face_handle(h));
   const Vec3 b = normals(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
   if (a.sqrnorm() == 0 || b.sqrnorm() == 0) return false;
-  return OpenMesh::dot(a, b) < std::cos(threshold_deg * kDeg);
+  return OpenMesh::dot(a, b) < threshold.cosine;
 }
 
 double angle_between(const Vec3& a, const Vec3& b) {
@@ -60,8 +68,8 @@ double angle_between(const Vec3& a, const Vec3& b) {
 //! Follows the crease from the boundary vertex along \p first away from the hole: at each
 //! vertex the sharp edge that continues straightest (turning less than 60°), until the length
 //! budget, another boundary or the end of the crease.
-std::vector<Vec3> trace_crease(FaceNormals& normals, HalfedgeHandle first, double threshold_deg,
-                               double max_length) {
+std::vector<Vec3> trace_crease(FaceNormals& normals, HalfedgeHandle first,
+                               const SharpAngle& threshold, double max_length) {
   const Mesh& mesh = normals.mesh();
   std::vector<Vec3> points{mesh.point(mesh.from_vertex_handle(first)),
                            mesh.point(mesh.to_vertex_handle(first))};
@@ -79,7 +87,7 @@ std::vector<Vec3> trace_crease(FaceNormals& normals, HalfedgeHandle first, doubl
     double best_cos = std::cos(60.0 * kDeg);
     for (const HalfedgeHandle h : mesh.voh_range(current)) {
       const VertexHandle w = mesh.to_vertex_handle(h);
-      if (w == previous || was_visited(w) || !is_sharp(normals, h, threshold_deg)) continue;
+      if (w == previous || was_visited(w) || !is_sharp(normals, h, threshold)) continue;
       const double c =
           OpenMesh::dot((mesh.point(w) - mesh.point(current)).normalize_cond(), direction);
       if (c > best_cos) {
@@ -380,6 +388,7 @@ std::optional<CreaseShape> crease_shape_towards(const Mesh& mesh, VertexHandle a
   const Vec3& origin = mesh.point(at);
   // Far enough to pass the pick; the trace ends earlier where the crease does.
   const double budget = std::max(1.5 * (pick - origin).norm() + tolerance, fit_length);
+  const SharpAngle sharp(angle_deg);
   std::optional<CreaseShape> best;
   double best_distance2 = tolerance * tolerance;
   FaceNormals normals(mesh, 64);
@@ -392,8 +401,8 @@ std::optional<CreaseShape> crease_shape_towards(const Mesh& mesh, VertexHandle a
   // The creases leaving \p v, each prefixed by \p rim (the rim vertices from `at` up to v).
   const auto try_creases_from = [&](VertexHandle v, const std::vector<Vec3>& rim) {
     for (const HalfedgeHandle h : mesh.voh_range(v)) {
-      if (!is_sharp(normals, h, angle_deg)) continue;
-      std::vector<Vec3> polyline = trace_crease(normals, h, angle_deg, budget);
+      if (!is_sharp(normals, h, sharp)) continue;
+      std::vector<Vec3> polyline = trace_crease(normals, h, sharp, budget);
       const double distance2 = distance2_to_pick(polyline);
       if (!(distance2 <= best_distance2)) continue;
       if (rim.size() > 1) {
@@ -935,7 +944,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
   for (const VertexHandle v : hole.loop) polygon.push_back(frame.project(mesh.point(v)));
 
   // Weaker sharp edges are candidates too, but only as partners of a strong crossing.
-  const double weak_angle = options.partner_angle_deg;
+  const SharpAngle weak_angle(options.partner_angle_deg);
   FaceNormals normals(mesh, 16 * n);  // the faces around the boundary and along the creases
   std::vector<CreaseCrossing> found;
   // The crossing where the crease traced as \p polyline (points[0] the rim vertex at loop index
