@@ -540,13 +540,11 @@ class Patch {
     Vec3 normal;
     if (!free(v, normal)) return false;
     const Vec3 p = mesh_.point(v);
-    struct Corner {
-      Vec3 b, c, normal;  // the face is (v, b, c) in its orientation
-    };
-    std::vector<Corner> ring;
+    std::vector<RingCorner>& ring = ring_;  // reused: this runs for every candidate vertex
+    ring.clear();
     Vec3 centre(0, 0, 0);
     double before = 1.0;
-    const Corner* worst = nullptr;
+    const RingCorner* worst = nullptr;
     for (const HalfedgeHandle h : mesh_.voh_range(v)) {
       if (mesh_.is_boundary(h)) return false;
       const Vec3& b = mesh_.point(mesh_.to_vertex_handle(h));
@@ -556,7 +554,7 @@ class Patch {
     }
     if (ring.size() < 3) return false;
     centre /= static_cast<double>(ring.size());
-    for (const Corner& t : ring) {
+    for (const RingCorner& t : ring) {
       const double a = triangle_shape(p, t.b, t.c);
       if (a < before) {
         before = a;
@@ -564,25 +562,27 @@ class Patch {
       }
     }
     const auto tangential = [&](Vec3 d) { return d - OpenMesh::dot(d, normal) * normal; };
-    std::vector<Vec3> steps{tangential(centre - p)};
+    std::array<Vec3, 2> steps{tangential(centre - p), Vec3(0, 0, 0)};
+    std::size_t step_count = 1;
     if (worst != nullptr && options_.apex_moves) {
       const Vec3 base = worst->c - worst->b;
       const Vec3 middle = 0.5 * (worst->b + worst->c);
       Vec3 out = tangential(p - middle);
       out -= (OpenMesh::dot(out, base) / std::max(base.sqrnorm(), 1e-300)) * base;
       if (out.sqrnorm() > 0)
-        steps.push_back(
-            tangential(middle + out.normalize() * (0.5 * std::sqrt(3.0) * base.norm()) - p));
+        steps[step_count++] =
+            tangential(middle + out.normalize() * (0.5 * std::sqrt(3.0) * base.norm()) - p);
     }
     double best = before + 1e-9;
     Vec3 chosen = p;
-    for (const Vec3& step : steps) {
+    for (std::size_t s = 0; s < step_count; ++s) {
+      const Vec3& step = steps[s];
       if (!(step.sqrnorm() > 0)) continue;
       for (const double fraction : {1.0, 0.5, 0.25}) {
         const Vec3 q = p + fraction * step;
         double after = 1.0;
         bool valid = true;
-        for (const Corner& t : ring) {
+        for (const RingCorner& t : ring) {
           const Vec3 n = OpenMesh::cross(t.b - q, t.c - q);
           const double length = n.norm();
           if (!(length > 0) || OpenMesh::dot(n, t.normal) < turn_cos_ * length) {
@@ -616,7 +616,11 @@ class Patch {
   double goal_;          //!< sin of the target minimum angle
   double encroach_cos_;  //!< cos of the widest angle a rim edge may be seen at (encroaches_rim)
   double shortest_split_ = -1;
-  std::vector<FaceHandle> touched_;   //!< faces changed since the bad faces were last found
+  std::vector<FaceHandle> touched_;  //!< faces changed since the bad faces were last found
+  struct RingCorner {
+    Vec3 b, c, normal;  // the face is (v, b, c) in its orientation
+  };
+  std::vector<RingCorner> ring_;      //!< try_move's scratch, kept for its capacity
   LocalMap<std::uint32_t> position_;  //!< face index -> its place in faces_
 };
 
