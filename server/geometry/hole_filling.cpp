@@ -1077,11 +1077,10 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         balloon_bulge = attempt.fair_bulge;
       // A simple hole's patch that projects injectively onto the hole's reference plane cannot
       // intersect itself (projects_injectively), so only its contacts with the rest of the
-      // mesh need the triangle tests; otherwise every pair is tested.
-      // Otherwise the pairs within a region that is embedded in its own plane need no test
-      // (disk_projects_injectively: a patch split along creases folds over every plane as a
-      // whole, but its regions rarely do: couplingdown_sml #1 0.17 -> 0.15 ms, the other crease
-      // holes of couplingdown 5-10 us less).
+      // mesh need the triangle tests. Otherwise every pair is tested but those within a region
+      // embedded in its own plane (disk_projects_injectively: a patch split along creases folds
+      // over every plane as a whole, but its regions rarely do; couplingdown_sml #1 0.17 -> 0.15
+      // ms, the other crease holes of couplingdown 5-10 us less).
       const auto patch_intersects = [&] {
         if (hole.is_simple &&
             projects_injectively(mesh, faces,

@@ -80,16 +80,27 @@ bool coplanar_triangles_overlap(const TrianglePoints& t1, const TrianglePoints& 
 
 }  // namespace
 
-PreparedTriangle prepare_triangle(const TrianglePoints& t, const std::array<int, 3>& ids) {
+namespace {
+
+//! What the segment test needs of a triangle (its plane and scale): prepare_triangle without
+//! the ids and the side planes, which only the pair test reads.
+PreparedTriangle prepare_plane(const TrianglePoints& t) {
   PreparedTriangle out;
   out.points = t;
-  out.ids = ids;
   out.normal = OpenMesh::cross(t[1] - t[0], t[2] - t[0]);
   out.normal_norm = out.normal.norm();
   if (out.normal_norm > 0) out.unit_normal = out.normal / out.normal_norm;
   for (int i = 0; i < 3; ++i)
     out.longest_sqr = std::max(out.longest_sqr, (t[(i + 1) % 3] - t[i]).sqrnorm());
   out.longest = std::max({(t[1] - t[0]).norm(), (t[2] - t[0]).norm(), (t[2] - t[1]).norm()});
+  return out;
+}
+
+}  // namespace
+
+PreparedTriangle prepare_triangle(const TrianglePoints& t, const std::array<int, 3>& ids) {
+  PreparedTriangle out = prepare_plane(t);
+  out.ids = ids;
   if (out.normal_norm > 0)
     for (int i = 0; i < 3; ++i)
       out.side_inward[i] = OpenMesh::cross(out.normal, t[(i + 1) % 3] - t[i]).normalize_cond();
@@ -148,7 +159,7 @@ double orient_to(const PreparedTriangle& t, const Vec3& d) {
 }  // namespace
 
 bool segment_intersects_triangle(const Vec3& p, const Vec3& q, const TrianglePoints& t) {
-  return segment_intersects_prepared(p, q, prepare_triangle(t, {-1, -2, -3}));
+  return segment_intersects_prepared(p, q, prepare_plane(t));
 }
 
 bool triangles_intersect(const TrianglePoints& t1, const std::array<int, 3>& ids1,

@@ -656,6 +656,9 @@ class RunCorners {
         near_hole_(std::move(near_hole)),
         runs_(crossings.size() * crossings.size()) {}
 
+  //! Whether \p p is near enough the hole to be a corner of it.
+  bool near_hole(const Vec3& p) const { return near_hole_(p); }
+
   //! The run of \p length (1 to the count) crossings from position \p start, modulo the count.
   const Run& at(std::size_t start, std::size_t length) {
     const std::size_t count = crossings_.size();
@@ -721,9 +724,8 @@ namespace {
 //! (couplingdown_sharp #2: a box edge's two top creases meet at one corner, from which a
 //! vertical edge drops to where a chamfer's creases and a third edge meet). The crossings (in
 //! loop order) are split into two runs of at least two, contiguous along the loop so that the
-//! curves cannot cross; each run's tangent lines must meet ahead of them within \p
-//! line_tolerance (corner_ahead_of), and that point is moved to where the creases, continued
-//! with their fitted bend, come closest (corner_of_bent_creases), which must be \p near_hole.
+//! curves cannot cross; each run's corner is the one \p runs works out (RunCorners: its tangent
+//! lines' meeting point, moved to where its bent creases come closest, near the hole).
 //! Of the splits that qualify, the one whose creases pass closest to their corners (the larger
 //! of the two corners' farthest_bent_crease) is taken; \p farthest receives that distance.
 bool join_at_two_corners(HoleCreasePlan& plan, std::span<const std::size_t> crossings,
@@ -799,8 +801,7 @@ std::optional<Vec3> edge_of_outer_faces(const Mesh& mesh, const Hole& hole,
 //! closest to their corners is taken; \p farthest receives that distance.
 bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                            std::span<const std::size_t> crossings, RunCorners& runs,
-                           const HermiteOptions& hermite, double tolerance,
-                           const std::function<bool(const Vec3&)>& near_hole, double& farthest) {
+                           const HermiteOptions& hermite, double tolerance, double& farthest) {
   const std::size_t count = crossings.size();
   if (count < 5) return false;
   struct Split {
@@ -852,7 +853,7 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
                           });
         if (!meeting_b) continue;
         const Vec3& corner_b = *meeting_b;
-        if (!near_hole(corner_b) || !(OpenMesh::dot(corner_b - *a.corner, *link_a) > 0) ||
+        if (!runs.near_hole(corner_b) || !(OpenMesh::dot(corner_b - *a.corner, *link_a) > 0) ||
             !(OpenMesh::dot(corner_b - *c.corner, *link_c) > 0))
           continue;
         const double score =
@@ -920,7 +921,7 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
   HoleCreasePlan three = plan;
   double three_distance = 0;
   if (crossings.size() >= 5 &&
-      join_at_three_corners(three, mesh, hole, crossings, runs, hermite, tolerance, near_hole,
+      join_at_three_corners(three, mesh, hole, crossings, runs, hermite, tolerance,
                             three_distance) &&
       three_distance <= two_corner_gain * best_distance) {
     best = std::move(three);
@@ -1131,7 +1132,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       return (p - found[c.a].position).norm() > near && (p - found[c.b].position).norm() > near;
     };
     // Segments farther apart than `near` along an axis are not measured (the paths are sampled
-    // at the edge length, and most of their segments pairs lie far apart); the slack keeps every
+    // at the edge length, and most of their segment pairs lie far apart); the slack keeps every
     // pair the distance itself might count, rounded.
     const double apart = near * (1 + 1e-9);
     const auto far_apart = [apart](const Vec3& p, const Vec3& q, const Vec3& u, const Vec3& v) {
