@@ -843,6 +843,15 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     }
     gather();
     flip_slivers();
+    if (min_angle_deg(mesh, faces) < kRescueBelowDeg) {
+      const auto t0 = Clock::now();
+      GradedRefinementOptions graded;
+      graded.below_deg = kRescueBelowDeg;
+      graded.goal_deg = kRescueGoalDeg;
+      const GradedRefinementReport gr = refine_graded(mesh, faces, face_regions, vertices, graded);
+      report.splits += gr.inserted;
+      report.phases.mend += seconds_since(t0);
+    }
   }
   report.shape = PatchShape::Fair;
   return {};

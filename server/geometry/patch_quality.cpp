@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <numbers>
 #include <utility>
 
@@ -22,6 +23,10 @@ constexpr double kRadian = std::numbers::pi / 180.0;
 //! bisections over a fan spanning a valley cascaded, worst angle 6.8 -> 3.7°.
 constexpr double kFlatBisectionFoldDeg = 10.0;
 
+//! A graded refinement's segment splits may come this much closer to a segment's ends than the
+//! shortest side of the triangle they mend (Ruppert's insertion radius, 1).
+constexpr double kGradedInsertionRadius = 0.75;
+
 //! sin of the smallest angle (intersection.h): compares smallest angles without trigonometry.
 double triangle_shape(const Vec3& a, const Vec3& b, const Vec3& c) {
   return min_angle_sine(a, b, c);
@@ -36,6 +41,19 @@ std::array<Vec3, 3> face_points(const Mesh& mesh, FaceHandle f) {
   int k = 0;
   for (const VertexHandle v : mesh.fv_range(f)) p[static_cast<std::size_t>(k++)] = mesh.point(v);
   return p;
+}
+
+//! The centre of the circle through the corners of \p p (not finite for a degenerate triangle).
+Vec3 circumcentre(const std::array<Vec3, 3>& p) {
+  const Vec3 u = p[1] - p[0], w = p[2] - p[0];
+  const Vec3 n = OpenMesh::cross(u, w);
+  return p[0] + (OpenMesh::cross(n, u) * w.sqrnorm() + OpenMesh::cross(w, n) * u.sqrnorm()) /
+                    (2 * n.sqrnorm());
+}
+
+double shortest_side(const std::array<Vec3, 3>& p) {
+  return std::sqrt(
+      std::min({(p[1] - p[0]).sqrnorm(), (p[2] - p[0]).sqrnorm(), (p[2] - p[1]).sqrnorm()}));
 }
 
 double face_shape(const Mesh& mesh, FaceHandle f) {
@@ -75,6 +93,24 @@ struct FlipQuad {
 };
 
 class Patch {
+  //! One edit of a graded refinement: a flip of \p flip, the insertion of \p vertex (undone
+  //! by collapsing it into \p end), or a move of \p moved.
+  struct Edit {
+    EdgeHandle flip;
+    VertexHandle vertex, end;
+    VertexHandle moved;  //!< or a move of this vertex from `from`
+    Vec3 from;
+  };
+  struct SplitFace {
+    std::array<VertexHandle, 3> corners;
+    int region = 0;
+  };
+  struct Transaction {
+    std::vector<Edit> edits;
+    LocalMap<double> before{64};    //!< face -> its shape before the first edit (1: a new face)
+    std::vector<FaceHandle> faces;  //!< the keys of `before`
+  };
+
  public:
   Patch(Mesh& mesh, std::vector<FaceHandle>& faces, std::vector<VertexHandle>& new_vertices,
         const PatchQualityOptions& options)
@@ -93,6 +129,8 @@ class Patch {
         goal_(std::sin(std::min(options.target_min_angle_deg, 60.0) * kRadian)),
         encroach_cos_(
             std::cos((180.0 - 2.0 * std::min(options.target_min_angle_deg, 60.0)) * kRadian)),
+        off_centre_tan_(
+            std::tan(0.5 * std::clamp(options.target_min_angle_deg, 1.0, 60.0) * kRadian)),
         position_(2 * faces.size() + 16) {
     for (std::size_t i = 0; i < faces_.size(); ++i)
       position_[faces_[i].idx()] = static_cast<std::uint32_t>(i);
@@ -105,9 +143,40 @@ class Patch {
     return worst;
   }
 
+  //! Gives the patch's faces regions (aligned with the faces): an edge between two regions is a
+  //! segment, never flipped, split only at its midpoint (a crease curve of a split hole).
+  void set_regions(const std::vector<int>& regions) {
+    has_regions_ = true;
+    region_ = LocalMap<int>(2 * faces_.size() + 16);
+    for (std::size_t i = 0; i < faces_.size() && i < regions.size(); ++i)
+      region_[faces_[i].idx()] = regions[i];
+  }
+
+  //! The regions of the patch's faces, aligned with them.
+  std::vector<int> regions() const {
+    std::vector<int> out;
+    out.reserve(faces_.size());
+    for (const FaceHandle f : faces_) {
+      const int* r = region_.find(f.idx());
+      out.push_back(r != nullptr ? *r : 0);
+    }
+    return out;
+  }
+
   bool interior(EdgeHandle e) const {
-    return set_.contains(mesh_.face_handle(mesh_.halfedge_handle(e, 0))) &&
-           set_.contains(mesh_.face_handle(mesh_.halfedge_handle(e, 1)));
+    const FaceHandle f0 = mesh_.face_handle(mesh_.halfedge_handle(e, 0));
+    const FaceHandle f1 = mesh_.face_handle(mesh_.halfedge_handle(e, 1));
+    return set_.contains(f0) && set_.contains(f1) &&
+           (!has_regions_ || *region_.find(f0.idx()) == *region_.find(f1.idx()));
+  }
+
+  //! An edge between two regions of the patch.
+  bool segment(EdgeHandle e) const {
+    if (!has_regions_) return false;
+    const FaceHandle f0 = mesh_.face_handle(mesh_.halfedge_handle(e, 0));
+    const FaceHandle f1 = mesh_.face_handle(mesh_.halfedge_handle(e, 1));
+    return set_.contains(f0) && set_.contains(f1) &&
+           *region_.find(f0.idx()) != *region_.find(f1.idx());
   }
 
   //! The triangles below the goal (one pass over the patch; the passes below work on these).
@@ -285,34 +354,38 @@ class Patch {
   double goal() const { return goal_; }
 
   //! A cap (one angle over max_bisected_angle_deg) that flips and moves left below the goal:
-  //! Ruppert's Delaunay refinement step. Its circumcentre is inserted and the edges around the
-  //! new vertex flipped; bisecting the cap's long edge cannot mend it when its small angles sit
-  //! at vertices fixed on the rim (a fan over an arc of short rim edges keeps its angles at the
-  //! fan's centre). The circumcentre is found by a walk from the cap across the patch, each
-  //! triangle's plane in turn. A walk that must cross a fold of a flat patch (a segment the
-  //! surface bends along) splits that fold at its midpoint instead, as Ruppert splits an
-  //! encroached segment (the midpoint lies on both planes); one that must cross the rim (which
-  //! cannot be split: it is the mesh's) or ends next to a vertex inserts nothing.
+  //! Ruppert's Delaunay refinement step. Its circumcentre is inserted (split_at) and the edges
+  //! around the new vertex flipped; bisecting the cap's long edge cannot mend it when its small
+  //! angles sit at vertices fixed on the rim (a fan over an arc of short rim edges keeps its
+  //! angles at the fan's centre).
   bool insert_circumcentre(FaceHandle f) {
     const auto p = face_points(mesh_, f);
-    const Vec3 u = p[1] - p[0], w = p[2] - p[0];
-    const Vec3 n = OpenMesh::cross(u, w);
-    const double n2 = n.sqrnorm();
-    if (!(n2 > 0)) return false;
-    const Vec3 centre =
-        p[0] +
-        (OpenMesh::cross(n, u) * w.sqrnorm() + OpenMesh::cross(w, n) * u.sqrnorm()) / (2 * n2);
-    constexpr double kNearSide = 0.02;  // barycentric: on a side
     const double before = triangle_shape(p[0], p[1], p[2]);
-    const double shortest_side =
-        std::sqrt(std::min({u.sqrnorm(), w.sqrnorm(), (p[2] - p[1]).sqrnorm()}));
+    VertexHandle v, end;
+    if (!split_at(f, circumcentre(p), shortest_side(p), v, end)) return false;
+    return insert_vertex(v, f, before, end);
+  }
+
+  //! Splits the patch at \p target, a point in the plane of \p f: found by a walk from f across
+  //! the patch, each triangle's plane in turn, and inserted by a split of the triangle it lands
+  //! in or of the side it lands on. A walk that must cross a fold of a flat patch (a segment
+  //! the surface bends along) splits that fold at its midpoint instead, as Ruppert splits an
+  //! encroached segment (the midpoint lies on both planes), unless that midpoint would come
+  //! closer to the fold's ends than \p insertion_radius (Ruppert's insertion radius: or splits
+  //! cascade towards a corner of the rim). A walk that must cross the rim (which cannot be
+  //! split: it is the mesh's), ends next to a vertex or encroaches on the rim splits nothing
+  //! and returns false. \p vertex receives the new vertex and \p end a corner of the split
+  //! triangle or an end of the split edge (what collapsing it into restores the split).
+  bool split_at(FaceHandle f, const Vec3& target, double insertion_radius, VertexHandle& vertex,
+                VertexHandle& end) {
+    constexpr double kNearSide = 0.02;  // barycentric: on a side
     FaceHandle g = f;
     for (int step = 0; step < 16; ++step) {
       const auto q = face_points(mesh_, g);
       const Vec3 gn = OpenMesh::cross(q[1] - q[0], q[2] - q[0]);
       const double area2 = gn.sqrnorm();
       if (!(area2 > 0)) return false;
-      const Vec3 point = centre - (OpenMesh::dot(centre - q[0], gn) / area2) * gn;
+      const Vec3 point = target - (OpenMesh::dot(target - q[0], gn) / area2) * gn;
       // lambda[k]: weight of corner k; its side is the halfedge from corner k+1 to k+2.
       std::array<double, 3> lambda;
       std::array<HalfedgeHandle, 3> side;
@@ -331,6 +404,7 @@ class Patch {
           static_cast<std::size_t>(std::min_element(lambda.begin(), lambda.end()) - lambda.begin());
       if (lambda[exit] < -kNearSide) {
         const EdgeHandle e = mesh_.edge_handle(side[exit]);
+        if (segment(e)) return split_segment(side[exit], insertion_radius, vertex, end);
         if (!interior(e)) return false;  // the rim is encroached
         const FaceHandle next = mesh_.face_handle(mesh_.opposite_halfedge_handle(side[exit]));
         if (options_.keep_surface) {
@@ -338,11 +412,10 @@ class Patch {
           if (OpenMesh::dot(Vec3(gn).normalize(), nn) < fold_cos_) {
             const Vec3& a = mesh_.point(mesh_.from_vertex_handle(side[exit]));
             const Vec3& b = mesh_.point(mesh_.to_vertex_handle(side[exit]));
-            // Ruppert's insertion radius: the midpoint may not come closer to the fold's ends
-            // than the cap's shortest side, or splits cascade towards a corner of the rim.
-            if (0.5 * (a - b).norm() < shortest_side) return false;
-            const VertexHandle end = mesh_.from_vertex_handle(side[exit]);
-            return insert_vertex(mesh_.split(e, 0.5 * (a + b)), f, before, end);
+            if (0.5 * (a - b).norm() < insertion_radius) return false;
+            end = mesh_.from_vertex_handle(side[exit]);
+            vertex = split_edge(e, 0.5 * (a + b));
+            return true;
           }
         }
         g = next;
@@ -351,37 +424,367 @@ class Patch {
       int near = 0;
       for (const double l : lambda) near += l < kNearSide ? 1 : 0;
       if (near > 1) return false;  // next to a vertex
-      if (encroaches_rim(g, point)) return false;
-      if (near == 0) return insert_vertex(mesh_.split(g, point), f, before, corners[0]);
+      // Ruppert: a point that encroaches on a segment splits the segment instead; one that
+      // encroaches on the rim is not inserted.
+      if (const HalfedgeHandle seen = encroached_edge(g, point, /*segments=*/true); seen.is_valid())
+        return split_segment(seen, insertion_radius, vertex, end);
+      if (encroached_edge(g, point, /*segments=*/false).is_valid()) return false;
+      if (near == 0) {
+        note_change(g);
+        note_split(g);
+        end = corners[0];
+        vertex = mesh_.split(g, point);
+        return true;
+      }
       // On a side (the one with the smallest weight, side[exit]): split that edge (a rim side
-      // cannot be).
+      // cannot be, a segment at its midpoint).
       const EdgeHandle e = mesh_.edge_handle(side[exit]);
+      if (segment(e)) return split_segment(side[exit], insertion_radius, vertex, end);
       if (!interior(e)) return false;
       const Vec3& a = mesh_.point(mesh_.from_vertex_handle(side[exit]));
       const Vec3& b = mesh_.point(mesh_.to_vertex_handle(side[exit]));
       const double t = std::clamp(OpenMesh::dot(point - a, b - a) / (b - a).sqrnorm(), 0.1, 0.9);
-      const VertexHandle end = mesh_.from_vertex_handle(side[exit]);
-      return insert_vertex(mesh_.split(e, a + t * (b - a)), f, before, end);
+      end = mesh_.from_vertex_handle(side[exit]);
+      vertex = split_edge(e, a + t * (b - a));
+      return true;
     }
     return false;
   }
 
-  //! Whether \p point, about to be inserted in \p g, sees a rim edge of a triangle around g at
-  //! so wide an angle that the triangle it would make with that edge is below the goal
-  //! whatever its other angles (Ruppert rejects a point in a segment's diametral circle and
-  //! splits the segment; the rim cannot be split).
-  bool encroaches_rim(FaceHandle g, const Vec3& point) const {
+  //! Splits the segment of \p h (an edge between two regions: a straight piece of a crease
+  //! curve) at its midpoint, which lies on both regions' surfaces, as Ruppert splits an
+  //! encroached segment; not closer to its ends than \p insertion_radius.
+  bool split_segment(HalfedgeHandle h, double insertion_radius, VertexHandle& vertex,
+                     VertexHandle& end) {
+    const Vec3& a = mesh_.point(mesh_.from_vertex_handle(h));
+    const Vec3& b = mesh_.point(mesh_.to_vertex_handle(h));
+    if (0.5 * (a - b).norm() < insertion_radius) return false;
+    end = mesh_.from_vertex_handle(h);
+    vertex = split_edge(mesh_.edge_handle(h), 0.5 * (a + b));
+    return true;
+  }
+
+  VertexHandle split_edge(EdgeHandle e, const Vec3& point) {
+    note_change(mesh_.face_handle(mesh_.halfedge_handle(e, 0)));
+    note_change(mesh_.face_handle(mesh_.halfedge_handle(e, 1)));
+    note_split(mesh_.face_handle(mesh_.halfedge_handle(e, 0)));
+    note_split(mesh_.face_handle(mesh_.halfedge_handle(e, 1)));
+    return mesh_.split(e, point);
+  }
+
+  //! With regions: remembers the region of \p f, about to be split, by its corners, for
+  //! file_faces_around to give each piece the region of the face it was cut from.
+  void note_split(FaceHandle f) {
+    if (!has_regions_) return;
+    SplitFace split;
+    std::size_t k = 0;
+    for (const VertexHandle v : mesh_.fv_range(f)) split.corners[k++] = v;
+    split.region = *region_.find(f.idx());
+    split_faces_.push_back(split);
+  }
+
+  //! Graded refinement of the triangles below \p below_deg: each gets refine_graded() in turn
+  //! (the patch's order), with at most \p insertions new vertices. Returns the vertices kept
+  //! and counts the refinements undone in \p undone.
+  std::size_t graded_pass(double below_deg, int insertions, std::size_t& undone,
+                          std::size_t& fixed) {
+    graded_ = std::sin(std::clamp(below_deg, 0.0, 60.0) * kRadian);
+    graded_insertions_ = insertions;
+    // A new vertex may see a rim edge at up to the angle that leaves the triangle it makes with
+    // that edge exactly at the angle worked below.
+    encroach_cos_ = std::cos((180.0 - 2.0 * std::clamp(below_deg, 0.0, 60.0)) * kRadian);
+    std::size_t inserted = 0;
+    const std::vector<FaceHandle> candidates = faces_;  // the pass adds and removes faces
+    for (const FaceHandle f : candidates)
+      if (!mesh_.status(f).deleted() && face_shape(mesh_, f) < graded_) {
+        if (fixed_corner(f)) {
+          ++fixed;
+          continue;
+        }
+        const std::size_t kept = refine_graded(f);
+        inserted += kept;
+        undone += kept == 0 ? 1 : 0;
+      }
+    return inserted;
+  }
+
+  //! Whether the smallest angle of \p f lies between two sides that are the rim or segments:
+  //! then it is the whole corner of its region there, and every triangulation of the region
+  //! has a triangle with that angle or less (no vertex can widen it).
+  bool fixed_corner(FaceHandle f) const {
+    HalfedgeHandle shortest;  // the smallest angle is opposite the shortest side
+    double length = std::numeric_limits<double>::infinity();
+    for (const HalfedgeHandle h : mesh_.fh_range(f))
+      if (const double l = mesh_.calc_edge_length(h); l < length) {
+        length = l;
+        shortest = h;
+      }
+    const HalfedgeHandle next = mesh_.next_halfedge_handle(shortest);
+    const HalfedgeHandle prev = mesh_.prev_halfedge_handle(shortest);
+    return !interior(mesh_.edge_handle(next)) && !interior(mesh_.edge_handle(prev));
+  }
+
+  //! Delaunay refinement by off-centres (A. Üngör, "Off-centers: a new type of Steiner points
+  //! for computing size-optimal quality-guaranteed Delaunay triangulations", LATIN 2004) around
+  //! a triangle that flips, moves, bisections and collapses left below graded_below_deg. What
+  //! they cannot mend is a short edge the patch cannot change (a rim edge, a link between two
+  //! crease corners) whose far corner sits a long way off: a good triangle on it needs a vertex
+  //! about as close to it as it is long, and that vertex's triangles need the next one a little
+  //! farther out, a graded row of new vertices. The worst triangle below the angle is taken in
+  //! turn; a vertex goes in on the bisector of its shortest side, at the circumcentre or, if
+  //! nearer, at the off-centre, the point that makes a triangle with that side whose angle there
+  //! is the goal (target_min_angle_deg: the size the goal allows, so the rows grade out as fast
+  //! as they may); Lawson's flips follow (split_at finds the point, or refuses one past or
+  //! encroaching on the rim). After at most graded_insertions vertices, the edits are kept when
+  //! the smallest angle of the triangles they touched grew; otherwise all are undone, in
+  //! reverse. Returns the number of vertices kept.
+  std::size_t refine_graded(FaceHandle start) {
+    // Two ways, the second only if the first does not lift every triangle it touched over the
+    // angle: with the new vertex and its neighbours moved after the flips around it, and
+    // without (measured: the moves mend couplingdown_sml #1 and send #2 a way that ends
+    // worse). The better is kept if it raised the smallest angle.
+    const auto corners = face_points(mesh_, start);
+    double before = 1.0;
+    double best_after = -1.0;
+    bool best_moves = true;
+    for (const bool moves : {true, false}) {
+      FaceHandle f = start;
+      if (!find_face(corners, f)) break;
+      Transaction transaction;
+      refine_graded(transaction, f, moves);
+      double after = 1.0;
+      before = 1.0;
+      for (const FaceHandle g : transaction.faces) {
+        before = std::min(before, *transaction.before.find(g.idx()));
+        if (!mesh_.status(g).deleted()) after = std::min(after, face_shape(mesh_, g));
+      }
+      if (after >= graded_) return finish(transaction, /*keep=*/true);
+      if (after > best_after) {
+        best_after = after;
+        best_moves = moves;
+      }
+      const bool undone = undo(transaction, 0);
+      drop_deleted();
+      if (!undone) return finish(transaction, /*keep=*/true);
+      finish(transaction, /*keep=*/false);
+    }
+    if (!(best_after > before + 1e-9)) return 0;
+    FaceHandle f = start;
+    if (!find_face(corners, f)) return 0;
+    Transaction transaction;
+    refine_graded(transaction, f, best_moves);
+    return finish(transaction, /*keep=*/true);
+  }
+
+  //! One graded refinement from \p start, its edits recorded in \p transaction.
+  void refine_graded(Transaction& transaction, FaceHandle start, bool moves) {
+    transaction_ = &transaction;
+    note_change(start);
+    LocalSet stuck(32);
+    for (int step = 0; step < graded_insertions_; ++step) {
+      FaceHandle worst;
+      double worst_shape = graded_;
+      for (const FaceHandle f : transaction.faces) {
+        if (mesh_.status(f).deleted() || stuck.contains(f.idx())) continue;
+        const double shape = face_shape(mesh_, f);
+        if (shape < worst_shape) {
+          worst_shape = shape;
+          worst = f;
+        }
+      }
+      if (!worst.is_valid()) break;
+      const auto p = face_points(mesh_, worst);
+      const std::vector<Vec3> candidates = steiner_candidates(worst, p);
+      // Each candidate is inserted and flipped around, scored by the worst triangle near it,
+      // and undone; the best is inserted again.
+      int best = -1;
+      double best_score = -1;
+      const std::size_t mark = transaction.edits.size();
+      for (int c = 0; c < static_cast<int>(candidates.size()); ++c) {
+        if (!find_face(p, worst)) break;  // an undo may restore it under a new handle
+        if (!insert_steiner(transaction, worst, candidates[static_cast<std::size_t>(c)],
+                            kGradedInsertionRadius * shortest_side(p), moves))
+          continue;
+        const double score = step_shape(transaction, mark);
+        if (score > best_score) {
+          best_score = score;
+          best = c;
+        }
+        const bool undone = undo(transaction, mark);
+        drop_deleted();
+        if (!undone) return;
+      }
+      if (best < 0 || !find_face(p, worst) ||
+          !insert_steiner(transaction, worst, candidates[static_cast<std::size_t>(best)],
+                          kGradedInsertionRadius * shortest_side(p), moves))
+        stuck.insert(worst.idx());
+    }
+    transaction_ = nullptr;
+  }
+
+  //! Where refine_graded() tries a new vertex for the triangle \p p, with a as the far end of
+  //! its shortest side ab, c the opposite corner and m the side's midpoint: on the side's
+  //! perpendicular bisector at the circumcentre or the off-centre, whichever is nearer (Üngör);
+  //! the same distance along the median mc, at most half way (the bisector leaves an obtuse
+  //! triangle through a side, the median stays inside); the centroid; the circumcentre
+  //! (Ruppert's point: past a cap's long side, so a walk there splits that side if it is a
+  //! segment); the centroid of the quad the triangle makes with its neighbour across its longest
+  //! side, if that is interior (a cap whose obtuse corner is on the rim: its small angles grow
+  //! only with a vertex off that side).
+  std::vector<Vec3> steiner_candidates(FaceHandle f, const std::array<Vec3, 3>& p) const {
+    std::size_t k = 0;  // the shortest side runs from p[k] to p[k + 1]
+    double shortest = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < 3; ++i) {
+      const double l = (p[(i + 1) % 3] - p[i]).sqrnorm();
+      if (l < shortest) {
+        shortest = l;
+        k = i;
+      }
+    }
+    const Vec3& a = p[k];
+    const Vec3& b = p[(k + 1) % 3];
+    const Vec3& c = p[(k + 2) % 3];
+    const Vec3 middle = 0.5 * (a + b);
+    const Vec3 side = b - a;
+    Vec3 up = (c - middle) - (OpenMesh::dot(c - middle, side) / side.sqrnorm()) * side;
+    up.normalize_cond();
+    const double to_circumcentre = OpenMesh::dot(circumcentre(p) - middle, up);
+    const double distance = std::min(to_circumcentre, 0.5 * std::sqrt(shortest) / off_centre_tan_);
+    const double median = (c - middle).norm();
+    const double along = median > 0 ? std::min(distance / median, 0.5) : 0.0;
+    std::vector<Vec3> out{middle + distance * up, middle + along * (c - middle), (a + b + c) / 3.0,
+                          circumcentre(p)};
+    HalfedgeHandle longest;
+    double length = 0;
+    for (const HalfedgeHandle h : mesh_.fh_range(f))
+      if (const double l = mesh_.calc_edge_length(h); l > length) {
+        length = l;
+        longest = h;
+      }
+    if (interior(mesh_.edge_handle(longest))) {
+      const HalfedgeHandle twin = mesh_.opposite_halfedge_handle(longest);
+      Vec3 quad = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(twin)));
+      for (const Vec3& q : p) quad += q;
+      out.push_back(0.25 * quad);
+    }
+    return out;
+  }
+
+  //! Inserts a Steiner point at \p target for the triangle \p f (split_at) and flips around it,
+  //! recording the edits in \p transaction.
+  bool insert_steiner(Transaction& transaction, FaceHandle f, const Vec3& target,
+                      double insertion_radius, bool moves) {
+    VertexHandle v, end;
+    if (!split_at(f, target, insertion_radius, v, end)) return false;
+    file_faces_around(v);
+    for (const FaceHandle g : mesh_.vf_range(v))
+      if (transaction.before.insert(g.idx(), 1.0)) transaction.faces.push_back(g);
+    transaction.edits.push_back({EdgeHandle(), v, end, VertexHandle(), Vec3()});
+    std::vector<EdgeHandle> flipped;
+    flip_around(v, flipped);
+    for (const EdgeHandle e : flipped)
+      transaction.edits.push_back({e, VertexHandle(), VertexHandle(), VertexHandle(), Vec3()});
+    // The new vertex and its neighbours settle around it (a vertex next to the new one may now
+    // move where its triangles were too thin before).
+    if (!moves) return true;
+    std::vector<VertexHandle> ring{v};
+    for (const VertexHandle w : mesh_.vv_range(v)) ring.push_back(w);
+    for (const VertexHandle w : ring) {
+      const Vec3 from = mesh_.point(w);
+      for (const FaceHandle g : mesh_.vf_range(w)) note_change(g);
+      if (try_move(w))
+        transaction.edits.push_back({EdgeHandle(), VertexHandle(), VertexHandle(), w, from});
+    }
+    return true;
+  }
+
+  //! The smallest shape of the triangles the edits of \p transaction after the first \p mark
+  //! made or moved: those around the vertex inserted and those moved.
+  double step_shape(const Transaction& transaction, std::size_t mark) const {
+    double worst = 1.0;
+    for (std::size_t i = mark; i < transaction.edits.size(); ++i) {
+      const Edit& edit = transaction.edits[i];
+      const VertexHandle v = edit.vertex.is_valid() ? edit.vertex : edit.moved;
+      if (!v.is_valid()) continue;
+      for (const FaceHandle f : mesh_.vf_range(v))
+        if (set_.contains(f)) worst = std::min(worst, face_shape(mesh_, f));
+    }
+    return worst;
+  }
+
+  //! Undoes the edits of \p transaction after the first \p mark, in reverse. False if one
+  //! could not be undone (not expected: each undo restores the triangulation its edit was made
+  //! on); the edits not undone then stay, a valid patch.
+  bool undo(Transaction& transaction, std::size_t mark) {
+    while (transaction.edits.size() > mark) {
+      const Edit& edit = transaction.edits.back();
+      if (edit.flip.is_valid()) {
+        mesh_.flip(edit.flip);
+      } else if (edit.moved.is_valid()) {
+        mesh_.set_point(edit.moved, edit.from);
+      } else {
+        HalfedgeHandle back;
+        for (const HalfedgeHandle h : mesh_.voh_range(edit.vertex))
+          if (mesh_.to_vertex_handle(h) == edit.end) back = h;
+        if (!back.is_valid() || !mesh_.is_collapse_ok(back)) return false;
+        mesh_.collapse(back);
+      }
+      transaction.edits.pop_back();
+    }
+    return true;
+  }
+
+  //! The live face with the corners \p p (an undo may restore a triangle under a new handle).
+  bool find_face(const std::array<Vec3, 3>& p, FaceHandle& f) const {
+    const auto same = [&](FaceHandle g) {
+      if (mesh_.status(g).deleted()) return false;
+      const auto q = face_points(mesh_, g);
+      for (std::size_t r = 0; r < 3; ++r)
+        if (q[r] == p[0] && q[(r + 1) % 3] == p[1] && q[(r + 2) % 3] == p[2]) return true;
+      return false;
+    };
+    if (same(f)) return true;
+    for (const FaceHandle g : faces_)
+      if (same(g)) {
+        f = g;
+        return true;
+      }
+    return false;
+  }
+
+  //! Ends \p transaction: its new vertices are the patch's when \p keep (the edits left after
+  //! an undo, if any, always are). Returns the number kept.
+  std::size_t finish(Transaction& transaction, bool keep) {
+    transaction_ = nullptr;
+    std::size_t kept = 0;
+    if (keep)
+      for (const Edit& edit : transaction.edits)
+        if (edit.vertex.is_valid()) {
+          new_vertices_.push_back(edit.vertex);
+          ++kept;
+        }
+    for (const FaceHandle f : transaction.faces)
+      if (!mesh_.status(f).deleted()) touched_.push_back(f);
+    return kept;
+  }
+
+  //! A segment between regions (\p segments) or a rim edge (otherwise) of a triangle around
+  //! \p g that \p point, about to be inserted in g, sees at so wide an angle that the triangle
+  //! it would make with that edge is below the goal whatever its other angles (Ruppert rejects a
+  //! point in a segment's diametral circle and splits the segment; the rim cannot be split).
+  HalfedgeHandle encroached_edge(FaceHandle g, const Vec3& point, bool segments) const {
     for (const VertexHandle c : mesh_.fv_range(g))
       for (const FaceHandle h : mesh_.vf_range(c)) {
         if (!set_.contains(h)) continue;
         for (const HalfedgeHandle e : mesh_.fh_range(h)) {
-          if (interior(mesh_.edge_handle(e))) continue;
+          const EdgeHandle edge = mesh_.edge_handle(e);
+          if (interior(edge) || segment(edge) != segments) continue;
           const Vec3 a = mesh_.point(mesh_.from_vertex_handle(e)) - point;
           const Vec3 b = mesh_.point(mesh_.to_vertex_handle(e)) - point;
-          if (OpenMesh::dot(a, b) < encroach_cos_ * a.norm() * b.norm()) return true;
+          if (OpenMesh::dot(a, b) < encroach_cos_ * a.norm() * b.norm()) return e;
         }
       }
-    return false;
+    return HalfedgeHandle();
   }
 
   //! Files a vertex a split just made (and its faces) in the patch and flips around it. Kept
@@ -417,14 +820,29 @@ class Patch {
     return false;
   }
 
-  //! Adds the faces around \p v (a split just made it) that are not in the patch yet.
+  //! Adds the faces around \p v (a split just made it) that are not in the patch yet; with
+  //! regions, gives each face around v the region of the face it was cut from (note_split).
   void file_faces_around(VertexHandle v) {
-    for (const FaceHandle nf : mesh_.vf_range(v))
+    for (const FaceHandle nf : mesh_.vf_range(v)) {
       if (!set_.contains(nf)) {
         set_.insert(nf);
         position_[nf.idx()] = static_cast<std::uint32_t>(faces_.size());
         faces_.push_back(nf);
       }
+      if (!has_regions_) continue;
+      // The piece keeps two corners of the face it was cut from; no other split face has both.
+      std::array<VertexHandle, 2> kept;
+      std::size_t k = 0;
+      for (const VertexHandle c : mesh_.fv_range(nf))
+        if (c != v && k < 2) kept[k++] = c;
+      for (const SplitFace& split : split_faces_) {
+        const auto has = [&](VertexHandle c) {
+          return std::find(split.corners.begin(), split.corners.end(), c) != split.corners.end();
+        };
+        if (has(kept[0]) && has(kept[1])) region_[nf.idx()] = split.region;
+      }
+    }
+    split_faces_.clear();
   }
 
   //! Lawson's flips around a new vertex: its link edges, and those a flip exposes.
@@ -504,6 +922,8 @@ class Patch {
           std::pow(options_.flat_flip_tolerance * span, 2))
         return false;
     }
+    note_change(mesh_.face_handle(h0));
+    note_change(mesh_.face_handle(h1));
     mesh_.flip(e);
     touched_.push_back(mesh_.face_handle(h0));
     touched_.push_back(mesh_.face_handle(h1));
@@ -514,8 +934,14 @@ class Patch {
     if (mesh_.is_boundary(v)) return false;
     Vec3 sum(0, 0, 0);
     Vec3 first(0, 0, 0);
+    const int* region = nullptr;  // with regions: a vertex on a segment (a crease) stays
     for (const FaceHandle f : mesh_.vf_range(v)) {
       if (!set_.contains(f)) return false;
+      if (has_regions_) {
+        const int* r = region_.find(f.idx());
+        if (region != nullptr && *r != *region) return false;
+        region = r;
+      }
       const auto p = face_points(mesh_, f);
       const Vec3 n = OpenMesh::cross(p[1] - p[0], p[2] - p[0]);
       if (options_.keep_surface) {
@@ -603,6 +1029,13 @@ class Patch {
     return true;
   }
 
+  //! Records the shape of \p f before an edit of a graded refinement first changes it.
+  void note_change(FaceHandle f) {
+    if (transaction_ == nullptr || !f.is_valid() || !set_.contains(f)) return;
+    if (transaction_->before.insert(f.idx(), face_shape(mesh_, f)))
+      transaction_->faces.push_back(f);
+  }
+
   Mesh& mesh_;
   std::vector<FaceHandle>& faces_;
   std::vector<VertexHandle>& new_vertices_;
@@ -614,9 +1047,17 @@ class Patch {
   double bisect_fold_cos_;  //!< a worse bisection only where its halves fold less than this
   double cap_cos_;
   double goal_;          //!< sin of the target minimum angle
-  double encroach_cos_;  //!< cos of the widest angle a rim edge may be seen at (encroaches_rim)
+  double encroach_cos_;  //!< cos of the widest angle a rim edge may be seen at (encroached_edge)
+  double graded_ = 0;    //!< sin of the angle refine_graded works below
+  int graded_insertions_ = 0;  //!< its most new vertices per triangle
+  double
+      off_centre_tan_;  //!< tan of half the goal: an off-centre's distance is half a side over it
   double shortest_split_ = -1;
-  std::vector<FaceHandle> touched_;  //!< faces changed since the bad faces were last found
+  Transaction* transaction_ = nullptr;  //!< the graded refinement being made, if any
+  bool has_regions_ = false;
+  LocalMap<int> region_;                //!< face -> region, with regions
+  std::vector<SplitFace> split_faces_;  //!< the faces the split being made cuts (note_split)
+  std::vector<FaceHandle> touched_;     //!< faces changed since the bad faces were last found
   struct RingCorner {
     Vec3 b, c, normal;  // the face is (v, b, c) in its orientation
   };
@@ -625,6 +1066,27 @@ class Patch {
 };
 
 }  // namespace
+
+GradedRefinementReport refine_graded(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
+                                     std::vector<int>& face_regions,
+                                     std::vector<VertexHandle>& new_vertices,
+                                     const GradedRefinementOptions& options) {
+  GradedRefinementReport report;
+  if (patch_faces.empty()) return report;
+  PatchQualityOptions quality;
+  quality.target_min_angle_deg = options.goal_deg;
+  quality.max_turn_deg = options.max_turn_deg;
+  quality.keep_surface = false;
+  quality.apex_moves = true;
+  Patch patch(mesh, patch_faces, new_vertices, quality);
+  if (!face_regions.empty()) patch.set_regions(face_regions);
+  report.min_angle_before_deg = shape_to_degrees(patch.min_shape());
+  report.inserted = patch.graded_pass(options.below_deg, options.max_insertions, report.undone,
+                                      report.fixed_corners);
+  report.min_angle_after_deg = shape_to_degrees(patch.min_shape());
+  if (!face_regions.empty()) face_regions = patch.regions();
+  return report;
+}
 
 double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces) {
   double worst = 1.0;

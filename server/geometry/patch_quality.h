@@ -23,7 +23,10 @@
 //!  - optionally, collapse of a free vertex of a triangle still bad into another corner of it,
 //!    when that raises the smallest angle around it (a vertex fairing pulled against a fixed
 //!    edge: every position in its tangent plane leaves an obtuse cap, and flips are limited).
-//! Nothing outside the patch changes; vertices on the patch's boundary never move.
+//! Nothing outside the patch changes; vertices on the patch's boundary never move. What all of
+//! these leave under the goal beside a short edge nothing may change (a rim edge, a link between
+//! crease corners) gets, last, a graded refinement by off-centres (refine_graded below), kept
+//! only where it raises the smallest angle.
 
 #include <cstddef>
 #include <vector>
@@ -115,6 +118,43 @@ struct RimSliverOptions {
 //! number of flips. Face handles stay valid (a flip reuses both faces).
 std::size_t flip_rim_slivers(Mesh& mesh, const std::vector<FaceHandle>& patch_faces,
                              const RimSliverOptions& options = {});
+
+//! Graded refinement of a whole patch, for the triangles the passes above leave below a goal
+//! (patch_quality.cpp: Patch::refine_graded). A patch split along crease curves is given with
+//! its faces' regions: an edge between two regions is a segment of a curve, never flipped, and
+//! split at its midpoint (which lies on both regions' surfaces) where a new vertex would
+//! encroach on it, as Ruppert's refinement splits a segment; the rim (the mesh's) is never split.
+struct GradedRefinementOptions {
+  //! Triangles below this angle are worked on (DESIGN's goal for refined fills).
+  double below_deg = 15.0;
+  //! The off-centres make triangles with this angle at the new vertex (the coarsest grading the
+  //! goal allows), and the flips around a new vertex aim at it.
+  double goal_deg = 25.0;
+  //! At most this many new vertices per triangle below the goal.
+  int max_insertions = 6;
+  //! A flip may turn a triangle's normal by at most this (as the fill's last quality pass).
+  double max_turn_deg = 60.0;
+};
+
+struct GradedRefinementReport {
+  std::size_t inserted = 0;  //!< vertices kept
+  std::size_t undone = 0;    //!< refinements undone (they did not raise the smallest angle)
+  //! Triangles not worked on: their smallest angle is a corner of their region between two
+  //! rim edges or segments, which no new vertex can widen.
+  std::size_t fixed_corners = 0;
+  double min_angle_before_deg = 180;
+  double min_angle_after_deg = 180;
+};
+
+//! Refines the triangles of \p patch_faces below options.below_deg in place, keeping each
+//! refinement only where it raises the smallest angle of the triangles it touched. New faces
+//! and vertices are appended to \p patch_faces (with their regions in \p face_regions, aligned
+//! with the faces; empty: one region) and \p new_vertices; the faces an undone refinement
+//! deleted leave both lists.
+GradedRefinementReport refine_graded(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
+                                     std::vector<int>& face_regions,
+                                     std::vector<VertexHandle>& new_vertices,
+                                     const GradedRefinementOptions& options = {});
 
 //! Smallest angle (degrees) of the triangles of \p faces.
 double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces);

@@ -1,6 +1,9 @@
 #include "server/geometry/patch_quality.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -239,6 +242,116 @@ TEST(PatchQuality, RimSliverTooWideIsKept) {
   wider.max_width = 0.2;  // 0.2 · 2 > 0.25: the width alone kept it
   EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch, wider), 1u);
   EXPECT_TRUE(h.mesh.find_halfedge(h.b, h.x).is_valid());
+}
+
+//! A planar hole (z = 0) closed by a patch in two regions, as a split along a crease curve
+//! leaves it: \p region0 and \p region1 are the regions' triangles over \p points (indices),
+//! the segment between them a straight piece of the curve. Each rim edge gets a mesh triangle
+//! outside, so the rim is the mesh's.
+struct TwoRegionPatch {
+  Mesh mesh;
+  std::vector<FaceHandle> patch;
+  std::vector<int> regions;
+};
+
+TwoRegionPatch two_region_patch(const std::vector<Vec3>& points,
+                                const std::vector<std::array<int, 3>>& region0,
+                                const std::vector<std::array<int, 3>>& region1,
+                                const std::vector<int>& rim) {
+  MeshSoup soup;
+  soup.points = points;
+  // Outside each rim edge u -> v (the patch's orientation, counter-clockwise): (v, u, o).
+  for (std::size_t i = 0; i < rim.size(); ++i) {
+    const Vec3 u = points[static_cast<std::size_t>(rim[i])];
+    const Vec3 v = points[static_cast<std::size_t>(rim[(i + 1) % rim.size()])];
+    const Vec3 d = (v - u).normalize();
+    soup.points.push_back(0.5 * (u + v) + 3.0 * Vec3(d[1], -d[0], 0));
+    soup.triangles.push_back({static_cast<std::uint32_t>(rim[(i + 1) % rim.size()]),
+                              static_cast<std::uint32_t>(rim[i]),
+                              static_cast<std::uint32_t>(soup.points.size() - 1)});
+  }
+  const std::size_t outside = soup.triangles.size();
+  for (const auto* list : {&region0, &region1})
+    for (const auto& t : *list)
+      soup.triangles.push_back({static_cast<std::uint32_t>(t[0]), static_cast<std::uint32_t>(t[1]),
+                                static_cast<std::uint32_t>(t[2])});
+  TwoRegionPatch out{build_mesh(soup).mesh, {}, {}};
+  for (std::size_t i = outside; i < soup.triangles.size(); ++i) {
+    out.patch.push_back(FaceHandle(static_cast<int>(i)));
+    out.regions.push_back(i < outside + region0.size() ? 0 : 1);
+  }
+  return out;
+}
+
+//! The live faces' corners, each triangle as its sorted points: the patch's shape, whatever the
+//! handles.
+std::vector<std::array<std::array<double, 3>, 3>> triangles_of(const Mesh& mesh) {
+  std::vector<std::array<std::array<double, 3>, 3>> out;
+  for (const FaceHandle f : mesh.faces()) {
+    std::array<std::array<double, 3>, 3> t;
+    std::size_t k = 0;
+    for (const VertexHandle v : mesh.fv_range(f)) {
+      const Vec3 p = mesh.point(v);
+      t[k++] = {p[0], p[1], p[2]};
+    }
+    std::sort(t.begin(), t.end());
+    out.push_back(t);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(GradedRefinement, StripBesideACreaseIsMendedBySplittingTheCrease) {
+  // A strip between the rim A-D-C-B and the straight crease segment A-B (10 long, 1 deep, its
+  // corners 26.6°): either diagonal leaves 7.1°, and a vertex inside the strip sees A-B at over
+  // 160°. Ruppert's remedy is the segment's midpoint (on both regions' surfaces): 18.4°.
+  const std::vector<Vec3> points{{0, 0, 0}, {2, -1, 0}, {8, -1, 0}, {10, 0, 0}, {5, 6, 0}};
+  TwoRegionPatch h = two_region_patch(points, {{0, 1, 2}, {0, 2, 3}}, {{0, 3, 4}}, {0, 1, 2, 3, 4});
+  ASSERT_EQ(h.patch.size(), 3u);
+  for (const FaceHandle f : h.patch) ASSERT_TRUE(f.is_valid());
+  ASSERT_LT(min_angle_deg(h.mesh, h.patch), 7.2);
+  std::vector<VertexHandle> added;
+  const GradedRefinementReport r = refine_graded(h.mesh, h.patch, h.regions, added);
+  EXPECT_LT(r.min_angle_before_deg, 7.2);
+  EXPECT_GE(r.min_angle_after_deg, 15.0);
+  EXPECT_NEAR(r.min_angle_after_deg, min_angle_deg(h.mesh, h.patch), 1e-9);
+  EXPECT_GE(r.inserted, 1u);
+  EXPECT_EQ(added.size(), r.inserted);
+  ASSERT_EQ(h.regions.size(), h.patch.size());
+  bool on_segment = false;
+  for (const VertexHandle v : added) {
+    const Vec3 p = h.mesh.point(v);
+    on_segment = on_segment || (p[1] == 0.0 && p[0] > 0 && p[0] < 10);
+  }
+  EXPECT_TRUE(on_segment) << "the crease segment A-B was split";
+  for (std::size_t i = 0; i < h.patch.size(); ++i)
+    for (const VertexHandle v : h.mesh.fv_range(h.patch[i])) {
+      const Vec3 p = h.mesh.point(v);
+      EXPECT_EQ(p[2], 0.0);  // the surface is kept
+      // Each region stays on its side of the crease line y = 0.
+      EXPECT_LE(h.regions[i] == 0 ? p[1] : -p[1], 0.0);
+    }
+  h.mesh.garbage_collection();
+  EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
+  EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);  // only the outer border
+}
+
+TEST(GradedRefinement, CornerNoVertexCanWidenIsLeftAsItWas) {
+  // Region 0 is one triangle A-D-C, two sides on the rim and one (A-C) on the crease: its
+  // 9.5° corner at A lies between the rim and the crease, so every triangle there keeps it.
+  const std::vector<Vec3> points{{0, 0, 0}, {6, -1, 0}, {10, 0, 0}, {5, 6, 0}};
+  TwoRegionPatch h = two_region_patch(points, {{0, 1, 2}}, {{0, 2, 3}}, {0, 1, 2, 3});
+  ASSERT_EQ(h.patch.size(), 2u);
+  for (const FaceHandle f : h.patch) ASSERT_TRUE(f.is_valid());
+  const auto before = triangles_of(h.mesh);
+  std::vector<VertexHandle> added;
+  const GradedRefinementReport r = refine_graded(h.mesh, h.patch, h.regions, added);
+  EXPECT_NEAR(r.min_angle_before_deg, 9.46, 0.01);
+  EXPECT_EQ(r.min_angle_after_deg, r.min_angle_before_deg);
+  EXPECT_EQ(r.fixed_corners, 1u);
+  EXPECT_EQ(r.inserted, 0u);
+  EXPECT_TRUE(added.empty());
+  EXPECT_EQ(triangles_of(h.mesh), before);
 }
 
 }  // namespace
