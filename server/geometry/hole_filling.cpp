@@ -639,6 +639,13 @@ constexpr double kRescueBelowDeg = 15.0;
 //! refused (its settled patch then crosses the mesh).
 constexpr double kRescueGoalDeg = 25.0;
 
+//! The graded refinement (patch_quality.h: refine_graded) is a last touch for the few triangles
+//! every pass before left under 15° beside a short fixed edge (one or two per hole on the
+//! cases). A patch with more is broken in another way (measured: rocker-arm_xl's first faired
+//! patch, which then crosses the mesh and is made again, has dozens under 15° down to 0.6°; the
+//! refinement spent 6.4 ms there on a patch the check refuses).
+constexpr std::size_t kGradedMaxTriangles = 4;
+
 //! Refines the inserted patch, mends its triangles (patch_quality.h) and gives it its shape.
 //! A hole split along crease curves is worked region by region (\p face_pieces; one region
 //! otherwise), so no flip crosses a curve and each region is faired on its own with the others
@@ -843,7 +850,8 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     }
     gather();
     flip_slivers();
-    if (min_angle_deg(mesh, faces) < kRescueBelowDeg) {
+    if (const std::size_t thin = count_faces_below(mesh, faces, kRescueBelowDeg);
+        thin > 0 && thin <= kGradedMaxTriangles) {
       const auto t0 = Clock::now();
       GradedRefinementOptions graded;
       graded.below_deg = kRescueBelowDeg;

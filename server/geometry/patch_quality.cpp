@@ -505,6 +505,7 @@ class Patch {
         inserted += kept;
         undone += kept == 0 ? 1 : 0;
       }
+    drop_deleted();  // once: the undone insertions' faces (lists skip deleted faces till then)
     return inserted;
   }
 
@@ -563,9 +564,7 @@ class Patch {
         best_after = after;
         best_moves = moves;
       }
-      const bool undone = undo(transaction, 0);
-      drop_deleted();
-      if (!undone) return finish(transaction, /*keep=*/true);
+      if (!undo(transaction, 0)) return finish(transaction, /*keep=*/true);
       finish(transaction, /*keep=*/false);
     }
     if (!(best_after > before + 1e-9)) return 0;
@@ -610,9 +609,7 @@ class Patch {
           best_score = score;
           best = c;
         }
-        const bool undone = undo(transaction, mark);
-        drop_deleted();
-        if (!undone) return;
+        if (!undo(transaction, mark)) return;
       }
       if (best < 0 || !find_face(p, worst) ||
           !insert_steiner(transaction, worst, candidates[static_cast<std::size_t>(best)],
@@ -1086,6 +1083,14 @@ GradedRefinementReport refine_graded(Mesh& mesh, std::vector<FaceHandle>& patch_
   report.min_angle_after_deg = shape_to_degrees(patch.min_shape());
   if (!face_regions.empty()) face_regions = patch.regions();
   return report;
+}
+
+std::size_t count_faces_below(const Mesh& mesh, const std::vector<FaceHandle>& faces,
+                              double degrees) {
+  const double below = std::sin(std::clamp(degrees, 0.0, 90.0) * kRadian);
+  std::size_t count = 0;
+  for (const FaceHandle f : faces) count += face_shape(mesh, f) < below ? 1 : 0;
+  return count;
 }
 
 double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces) {

@@ -156,6 +156,10 @@ GradedRefinementReport refine_graded(Mesh& mesh, std::vector<FaceHandle>& patch_
                                      std::vector<VertexHandle>& new_vertices,
                                      const GradedRefinementOptions& options = {});
 
+//! How many triangles of \p faces have an angle under \p degrees.
+std::size_t count_faces_below(const Mesh& mesh, const std::vector<FaceHandle>& faces,
+                              double degrees);
+
 //! Smallest angle (degrees) of the triangles of \p faces.
 double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces);
 
