@@ -589,7 +589,10 @@ class Patch {
           best_score = score;
           best = c;
         }
-        if (!undo(transaction, mark)) return;
+        if (!undo(transaction, mark)) {
+          transaction_ = nullptr;  // the edits left stand; the caller keeps them
+          return;
+        }
       }
       if (best < 0 || !find_face(corners, worst) ||
           !insert_steiner(transaction, worst, candidates[static_cast<std::size_t>(best)],
@@ -599,8 +602,8 @@ class Patch {
     transaction_ = nullptr;
   }
 
-  //! Where refine_graded() tries a new vertex for the triangle \p p, with a as the far end of
-  //! its shortest side ab, c the opposite corner and m the side's midpoint: on the side's
+  //! Where refine_graded() tries a new vertex for the triangle \p p (face \p f), with ab its
+  //! shortest side, c the opposite corner and m the side's midpoint: on the side's
   //! perpendicular bisector at the circumcentre or the off-centre, whichever is nearer (Üngör);
   //! the same distance along the median mc, at most half way (the bisector leaves an obtuse
   //! triangle through a side, the median stays inside); the centroid; the circumcentre

@@ -128,7 +128,7 @@ struct GradedRefinementOptions {
   //! Triangles below this angle are worked on (DESIGN's goal for refined fills).
   double below_deg = 15.0;
   //! The off-centres make triangles with this angle at the new vertex (the coarsest grading the
-  //! goal allows), and the flips around a new vertex aim at it.
+  //! goal allows).
   double goal_deg = 25.0;
   //! At most this many new vertices per triangle below the goal.
   int max_insertions = 6;
