@@ -1049,7 +1049,9 @@ GradedRefinementReport refine_graded(Mesh& mesh, std::vector<FaceHandle>& patch_
                                      std::vector<VertexHandle>& new_vertices,
                                      const GradedRefinementOptions& options) {
   GradedRefinementReport report;
-  if (patch_faces.empty()) return report;
+  // Regions must be given for every face (or none): a face without one has no side to keep.
+  if (patch_faces.empty() || (!face_regions.empty() && face_regions.size() != patch_faces.size()))
+    return report;
   PatchQualityOptions quality;
   quality.target_min_angle_deg = options.goal_deg;
   quality.max_turn_deg = options.max_turn_deg;

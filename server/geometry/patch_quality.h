@@ -150,7 +150,7 @@ struct GradedRefinementReport {
 //! refinement only where it raises the smallest angle of the triangles it touched. New faces
 //! and vertices are appended to \p patch_faces (with their regions in \p face_regions, aligned
 //! with the faces; empty: one region) and \p new_vertices; the faces an undone refinement
-//! deleted leave both lists.
+//! deleted leave both lists. Regions not aligned with the faces: nothing is done.
 GradedRefinementReport refine_graded(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
                                      std::vector<int>& face_regions,
                                      std::vector<VertexHandle>& new_vertices,

@@ -311,6 +311,10 @@ TEST(GradedRefinement, StripBesideACreaseIsMendedBySplittingTheCrease) {
   for (const FaceHandle f : h.patch) ASSERT_TRUE(f.is_valid());
   ASSERT_LT(min_angle_deg(h.mesh, h.patch), 7.2);
   std::vector<VertexHandle> added;
+  std::vector<int> misaligned{0, 1};  // one region too few: refused, nothing changes
+  EXPECT_EQ(refine_graded(h.mesh, h.patch, misaligned, added).inserted, 0u);
+  EXPECT_EQ(h.patch.size(), 3u);
+  EXPECT_TRUE(added.empty());
   const GradedRefinementReport r = refine_graded(h.mesh, h.patch, h.regions, added);
   EXPECT_LT(r.min_angle_before_deg, 7.2);
   EXPECT_GE(r.min_angle_after_deg, 15.0);
