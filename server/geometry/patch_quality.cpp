@@ -409,14 +409,8 @@ class Patch {
         const FaceHandle next = mesh_.face_handle(mesh_.opposite_halfedge_handle(side[exit]));
         if (options_.keep_surface) {
           const Vec3 nn = mesh_.calc_face_normal(next);
-          if (OpenMesh::dot(Vec3(gn).normalize(), nn) < fold_cos_) {
-            const Vec3& a = mesh_.point(mesh_.from_vertex_handle(side[exit]));
-            const Vec3& b = mesh_.point(mesh_.to_vertex_handle(side[exit]));
-            if (0.5 * (a - b).norm() < insertion_radius) return false;
-            end = mesh_.from_vertex_handle(side[exit]);
-            vertex = split_edge(e, 0.5 * (a + b));
-            return true;
-          }
+          if (OpenMesh::dot(Vec3(gn).normalize(), nn) < fold_cos_)
+            return split_segment(side[exit], insertion_radius, vertex, end);
         }
         g = next;
         continue;
@@ -451,9 +445,9 @@ class Patch {
     return false;
   }
 
-  //! Splits the segment of \p h (an edge between two regions: a straight piece of a crease
-  //! curve) at its midpoint, which lies on both regions' surfaces, as Ruppert splits an
-  //! encroached segment; not closer to its ends than \p insertion_radius.
+  //! Splits the segment of \p h (an edge between two regions, a straight piece of a crease
+  //! curve, or a fold of a flat patch) at its midpoint, which lies on both sides' surfaces, as
+  //! Ruppert splits an encroached segment; not closer to its ends than \p insertion_radius.
   bool split_segment(HalfedgeHandle h, double insertion_radius, VertexHandle& vertex,
                      VertexHandle& end) {
     const Vec3& a = mesh_.point(mesh_.from_vertex_handle(h));
@@ -573,6 +567,7 @@ class Patch {
       std::size_t k = 0;
       for (const VertexHandle v : mesh_.fv_range(worst)) corners[k++] = v;
       const std::vector<Vec3> candidates = steiner_candidates(worst, p);
+      const double radius = kGradedInsertionRadius * shortest_side(p);
       // Each candidate is inserted and flipped around, scored by the worst triangle around it,
       // and undone; the best is inserted again and settled by moves (scoring the candidates
       // after their moves too mended couplingdown_sml #1 but led #2 to a worse end).
@@ -581,8 +576,8 @@ class Patch {
       const std::size_t mark = transaction.edits.size();
       for (int c = 0; c < static_cast<int>(candidates.size()); ++c) {
         if (!find_face(corners, worst)) break;  // an undo may restore it under a new handle
-        if (!insert_steiner(transaction, worst, candidates[static_cast<std::size_t>(c)],
-                            kGradedInsertionRadius * shortest_side(p), /*moves=*/false))
+        if (!insert_steiner(transaction, worst, candidates[static_cast<std::size_t>(c)], radius,
+                            /*moves=*/false))
           continue;
         const double score = step_shape(transaction, mark);
         if (score > best_score) {
@@ -595,8 +590,8 @@ class Patch {
         }
       }
       if (best < 0 || !find_face(corners, worst) ||
-          !insert_steiner(transaction, worst, candidates[static_cast<std::size_t>(best)],
-                          kGradedInsertionRadius * shortest_side(p), /*moves=*/true))
+          !insert_steiner(transaction, worst, candidates[static_cast<std::size_t>(best)], radius,
+                          /*moves=*/true))
         stuck.insert(worst.idx());
     }
     transaction_ = nullptr;
@@ -628,12 +623,13 @@ class Patch {
     const Vec3 side = b - a;
     Vec3 up = (c - middle) - (OpenMesh::dot(c - middle, side) / side.sqrnorm()) * side;
     up.normalize_cond();
-    const double to_circumcentre = OpenMesh::dot(circumcentre(p) - middle, up);
+    const Vec3 centre = circumcentre(p);
+    const double to_circumcentre = OpenMesh::dot(centre - middle, up);
     const double distance = std::min(to_circumcentre, 0.5 * std::sqrt(shortest) / off_centre_tan_);
     const double median = (c - middle).norm();
     const double along = median > 0 ? std::min(distance / median, 0.5) : 0.0;
     std::vector<Vec3> out{middle + distance * up, middle + along * (c - middle), (a + b + c) / 3.0,
-                          circumcentre(p)};
+                          centre};
     HalfedgeHandle longest;
     double length = 0;
     for (const HalfedgeHandle h : mesh_.fh_range(f))
@@ -659,11 +655,7 @@ class Patch {
     file_faces_around(v);
     for (const FaceHandle g : mesh_.vf_range(v))
       if (transaction.before.insert(g.idx(), 1.0)) transaction.faces.push_back(g);
-    transaction.edits.push_back({EdgeHandle(), v, end, VertexHandle(), Vec3()});
-    std::vector<EdgeHandle> flipped;
-    flip_around(v, flipped);
-    for (const EdgeHandle e : flipped)
-      transaction.edits.push_back({e, VertexHandle(), VertexHandle(), VertexHandle(), Vec3()});
+    flip_around(transaction, v, end);
     // The new vertex and its neighbours settle around it (a vertex next to the new one may now
     // move where its triangles were too thin before).
     if (!moves) return true;
@@ -771,8 +763,8 @@ class Patch {
   //! split replaced.
   bool insert_vertex(VertexHandle v, FaceHandle cap, double before, VertexHandle end) {
     file_faces_around(v);
-    std::vector<EdgeHandle> flipped;
-    flip_around(v, flipped);
+    Transaction transaction;
+    flip_around(transaction, v, end);
     double after = mesh_.status(cap).deleted() ? 1.0 : face_shape(mesh_, cap);
     for (const FaceHandle nf : mesh_.vf_range(v)) after = std::min(after, face_shape(mesh_, nf));
     const auto keep = [&] {
@@ -781,15 +773,11 @@ class Patch {
       return true;
     };
     if (after > before + 1e-9) return keep();
-    for (auto e = flipped.rbegin(); e != flipped.rend(); ++e) mesh_.flip(*e);
+    undo(transaction, 1);  // the flips, in reverse
     // The restored triangles may come back under other handles: they are looked at again.
     std::vector<VertexHandle> link;
     for (const VertexHandle x : mesh_.vv_range(v)) link.push_back(x);
-    HalfedgeHandle back;
-    for (const HalfedgeHandle h : mesh_.voh_range(v))
-      if (mesh_.to_vertex_handle(h) == end) back = h;
-    if (!back.is_valid() || !mesh_.is_collapse_ok(back)) return keep();  // not expected
-    mesh_.collapse(back);
+    if (!undo(transaction, 0)) return keep();  // not expected
     for (const VertexHandle x : link)
       for (const FaceHandle nf : mesh_.vf_range(x))
         if (set_.contains(nf)) touched_.push_back(nf);
@@ -822,8 +810,10 @@ class Patch {
     split_faces_.clear();
   }
 
-  //! Lawson's flips around a new vertex: its link edges, and those a flip exposes.
-  void flip_around(VertexHandle v, std::vector<EdgeHandle>& flipped) {
+  //! Records the insertion of \p v (undone by collapsing it into \p end) in \p transaction,
+  //! then Lawson's flips around it: its link edges, and those a flip exposes, each recorded.
+  void flip_around(Transaction& transaction, VertexHandle v, VertexHandle end) {
+    transaction.edits.push_back({EdgeHandle(), v, end, VertexHandle(), Vec3()});
     std::deque<EdgeHandle> queue;
     for (const HalfedgeHandle h : mesh_.voh_range(v))
       queue.push_back(mesh_.edge_handle(mesh_.next_halfedge_handle(h)));
@@ -832,7 +822,7 @@ class Patch {
       const EdgeHandle e = queue.front();
       queue.pop_front();
       if (!try_flip(e)) continue;
-      flipped.push_back(e);
+      transaction.edits.push_back({e, VertexHandle(), VertexHandle(), VertexHandle(), Vec3()});
       for (int side = 0; side < 2; ++side) {
         const HalfedgeHandle h = mesh_.halfedge_handle(e, side);
         for (const HalfedgeHandle g :
