@@ -728,7 +728,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
   const auto flip_slivers = [&] {
     if (!options.improve_quality) return;
     const auto t0 = Clock::now();
-    report.flips += flip_rim_slivers(mesh, faces);
+    report.flips += flip_rim_slivers(mesh, faces, face_regions);
     report.phases.mend += seconds_since(t0);
   };
   report.shape = PatchShape::Flat;

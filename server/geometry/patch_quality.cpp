@@ -373,13 +373,18 @@ class Patch {
   //! encroached segment (the midpoint lies on both planes), unless that midpoint would come
   //! closer to the fold's ends than \p insertion_radius (Ruppert's insertion radius: or splits
   //! cascade towards a corner of the rim). A walk that must cross the rim (which cannot be
-  //! split: it is the mesh's), ends next to a vertex or encroaches on the rim splits nothing
-  //! and returns false. \p vertex receives the new vertex and \p end a corner of the split
-  //! triangle or an end of the split edge (what collapsing it into restores the split).
-  bool split_at(FaceHandle f, const Vec3& target, double insertion_radius, VertexHandle& vertex,
-                VertexHandle& end) {
+  //! split: it is the mesh's) or ends next to a vertex splits nothing and returns false; so does
+  //! one that ends encroaching on the rim, unless \p push_off_rim: the point then moves straight
+  //! off that rim edge until it no longer encroaches (push_off) and the walk goes on, once (the
+  //! graded refinement: couplingdown_sml #2's vertices beside a 0.29-long rim edge, whose lens
+  //! covers every candidate of the narrow triangles next to it). \p vertex receives the new
+  //! vertex and \p end a corner of the split triangle or an end of the split edge (what
+  //! collapsing it into restores the split).
+  bool split_at(FaceHandle f, Vec3 target, double insertion_radius, VertexHandle& vertex,
+                VertexHandle& end, bool push_off_rim = false) {
     constexpr double kNearSide = 0.02;  // barycentric: on a side
     FaceHandle g = f;
+    bool pushed = false;
     for (int step = 0; step < 16; ++step) {
       const auto q = face_points(mesh_, g);
       const Vec3 gn = OpenMesh::cross(q[1] - q[0], q[2] - q[0]);
@@ -419,10 +424,17 @@ class Patch {
       for (const double l : lambda) near += l < kNearSide ? 1 : 0;
       if (near > 1) return false;  // next to a vertex
       // Ruppert: a point that encroaches on a segment splits the segment instead; one that
-      // encroaches on the rim is not inserted.
+      // encroaches on the rim is not inserted there.
       if (const HalfedgeHandle seen = encroached_edge(g, point, /*segments=*/true); seen.is_valid())
         return split_segment(seen, insertion_radius, vertex, end);
-      if (encroached_edge(g, point, /*segments=*/false).is_valid()) return false;
+      if (const HalfedgeHandle rim = encroached_edge(g, point, /*segments=*/false);
+          rim.is_valid()) {
+        if (!push_off_rim || pushed || !push_off(rim, point, target)) return false;
+        // The rim cannot be split: the point has moved straight away from the edge until it
+        // no longer encroaches on it, and the walk goes on from here (once).
+        pushed = true;
+        continue;
+      }
       if (near == 0) {
         note_change(g);
         note_split(g);
@@ -455,6 +467,28 @@ class Patch {
     if (0.5 * (a - b).norm() < insertion_radius) return false;
     end = mesh_.from_vertex_handle(h);
     vertex = split_edge(mesh_.edge_handle(h), 0.5 * (a + b));
+    return true;
+  }
+
+  //! \p point moved away from the rim edge of \p h, across it in the plane of the two, until
+  //! it no longer encroaches on the edge (encroached_edge), and a twentieth further; in \p out.
+  bool push_off(HalfedgeHandle h, const Vec3& point, Vec3& out) const {
+    const Vec3& a = mesh_.point(mesh_.from_vertex_handle(h));
+    const Vec3& b = mesh_.point(mesh_.to_vertex_handle(h));
+    const Vec3 side = b - a;
+    Vec3 away = (point - a) - (OpenMesh::dot(point - a, side) / side.sqrnorm()) * side;
+    if (!(away.norm() > 0)) return false;
+    away.normalize();
+    const auto encroaches = [&](double t) {
+      const Vec3 p = point + t * away;
+      return OpenMesh::dot(a - p, b - p) < encroach_cos_ * (a - p).norm() * (b - p).norm();
+    };
+    double near = 0, far = side.norm();  // a side's length off, the edge is seen at under 54°
+    for (int i = 0; i < 30; ++i) {
+      const double middle = 0.5 * (near + far);
+      (encroaches(middle) ? near : far) = middle;
+    }
+    out = point + 1.05 * far * away;
     return true;
   }
 
@@ -528,10 +562,10 @@ class Patch {
   //! farther out, a graded row of new vertices. The worst triangle below the angle among those
   //! touched so far is taken in turn, and the best of its candidate points
   //! (steiner_candidates) goes in, with Lawson's flips and then moves of the new vertex and its
-  //! neighbours (split_at finds the point, splits a segment it would encroach on, refuses one
-  //! past or encroaching on the rim). After at most graded_insertions_ vertices, the edits are
-  //! kept when the smallest angle of the triangles they touched grew; otherwise all are undone,
-  //! in reverse. Returns the number of vertices kept.
+  //! neighbours (split_at finds the point, splits a segment it would encroach on, moves one
+  //! that would encroach on the rim off it, refuses one past the rim). After at most
+  //! graded_insertions_ vertices, the edits are kept when the smallest angle of the triangles they
+  //! touched grew; otherwise all are undone, in reverse. Returns the number of vertices kept.
   std::size_t refine_graded(FaceHandle start) {
     Transaction transaction;
     refine_graded(transaction, start);
@@ -651,7 +685,7 @@ class Patch {
   bool insert_steiner(Transaction& transaction, FaceHandle f, const Vec3& target,
                       double insertion_radius, bool moves) {
     VertexHandle v, end;
-    if (!split_at(f, target, insertion_radius, v, end)) return false;
+    if (!split_at(f, target, insertion_radius, v, end, /*push_off_rim=*/true)) return false;
     file_faces_around(v);
     for (const FaceHandle g : mesh_.vf_range(v))
       if (transaction.before.insert(g.idx(), 1.0)) transaction.faces.push_back(g);
@@ -1072,8 +1106,12 @@ double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces) {
 }
 
 std::size_t flip_rim_slivers(Mesh& mesh, const std::vector<FaceHandle>& patch_faces,
-                             const RimSliverOptions& options) {
+                             std::span<int> face_regions, const RimSliverOptions& options) {
   const FaceSet patch(patch_faces);
+  const bool regions = !face_regions.empty() && face_regions.size() == patch_faces.size();
+  LocalMap<std::size_t> position(regions ? 2 * patch_faces.size() + 16 : 0);
+  if (regions)
+    for (std::size_t i = 0; i < patch_faces.size(); ++i) position[patch_faces[i].idx()] = i;
   const auto in_patch = [&](HalfedgeHandle h) {
     const FaceHandle f = mesh.face_handle(h);
     return f.is_valid() && patch.contains(f);
@@ -1100,6 +1138,10 @@ std::size_t flip_rim_slivers(Mesh& mesh, const std::vector<FaceHandle>& patch_fa
         std::pow(options.max_width * (quad.j - quad.i).norm(), 2))
       continue;
     if (!quad.improves(turn_cos)) continue;
+    if (regions) {
+      const FaceHandle across = mesh.face_handle(mesh.opposite_halfedge_handle(chord));
+      face_regions[*position.find(f.idx())] = face_regions[*position.find(across.idx())];
+    }
     mesh.flip(e);
     ++flips;
   }

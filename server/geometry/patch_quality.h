@@ -29,6 +29,7 @@
 //! only where it raises the smallest angle.
 
 #include <cstddef>
+#include <span>
 #include <vector>
 
 #include "server/geometry/mesh.h"
@@ -115,8 +116,12 @@ struct RimSliverOptions {
 };
 
 //! Flips the chords of the rim slivers of \p patch_faces (see RimSliverOptions); returns the
-//! number of flips. Face handles stay valid (a flip reuses both faces).
+//! number of flips. Face handles stay valid (a flip reuses both faces). \p face_regions, if not
+//! empty, is each face's region (aligned with \p patch_faces): both flipped faces then belong to
+//! the region across the chord, which the rim vertex joins (the sliver's region loses its only
+//! triangle there), so no edge of the pair is taken for a segment of a curve afterwards.
 std::size_t flip_rim_slivers(Mesh& mesh, const std::vector<FaceHandle>& patch_faces,
+                             std::span<int> face_regions = {},
                              const RimSliverOptions& options = {});
 
 //! Graded refinement of a whole patch, for the triangles the passes above leave below a goal

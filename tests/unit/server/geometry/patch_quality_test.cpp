@@ -232,6 +232,21 @@ TEST(PatchQuality, RimSliverChordIsFlippedSoTheCreaseFollowsTheRim) {
   EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch), 0u);  // nothing left to mend
 }
 
+TEST(PatchQuality, RimSliverFlipHandsBothTrianglesToTheRegionAcross) {
+  // The sliver is region 0 (the side of the chord the crease cut off), the face across it
+  // region 1. After the flip b belongs to region 1's triangles: had the sliver's face kept
+  // region 0, the edge b–x would count as a segment of the curve, which a graded refinement
+  // never flips (couplingdown_sml #1's rim corner stayed at 14.7° that way).
+  RimSliver h = rim_sliver(1.0, 0.02);
+  std::vector<int> regions{0, 1};
+  EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch, regions), 1u);
+  EXPECT_EQ(regions, (std::vector<int>{1, 1}));
+  std::vector<int> wrong_size{0};  // not aligned with the faces: not touched, the flip still made
+  RimSliver g = rim_sliver(1.0, 0.02);
+  EXPECT_EQ(flip_rim_slivers(g.mesh, g.patch, wrong_size), 1u);
+  EXPECT_EQ(wrong_size, std::vector<int>{0});
+}
+
 TEST(PatchQuality, RimSliverTooWideIsKept) {
   // b 0.25 off a chord of 2 (over a tenth of it): a flip would move the surface by that much,
   // though the triangle's smallest angle (8.4° at c) is under the goal.
@@ -240,7 +255,7 @@ TEST(PatchQuality, RimSliverTooWideIsKept) {
   EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch), 0u);
   RimSliverOptions wider;
   wider.max_width = 0.2;  // 0.2 · 2 > 0.25: the width alone kept it
-  EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch, wider), 1u);
+  EXPECT_EQ(flip_rim_slivers(h.mesh, h.patch, {}, wider), 1u);
   EXPECT_TRUE(h.mesh.find_halfedge(h.b, h.x).is_valid());
 }
 
