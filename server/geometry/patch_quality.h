@@ -128,7 +128,10 @@ std::size_t flip_rim_slivers(Mesh& mesh, const std::vector<FaceHandle>& patch_fa
 //! (patch_quality.cpp: Patch::refine_graded). A patch split along crease curves is given with
 //! its faces' regions: an edge between two regions is a segment of a curve, never flipped, and
 //! split at its midpoint (which lies on both regions' surfaces) where a new vertex would
-//! encroach on it, as Ruppert's refinement splits a segment; the rim (the mesh's) is never split.
+//! encroach on it, as Ruppert's refinement splits a segment; the rim (the mesh's) is never
+//! split, and a new vertex that would encroach on it moves off it. Where a triangle has a
+//! corner of the rim between two edges of very unequal length, a graded fan of triangles at
+//! that corner is tried too (the corner's free neighbours moved onto it).
 struct GradedRefinementOptions {
   //! Triangles below this angle are worked on (DESIGN's goal for refined fills).
   double below_deg = 15.0;

@@ -654,6 +654,29 @@ TEST(HoleCasesShape, NearTheBalloonLimitTheOtherMethodIsFaired) {
   EXPECT_LE(r.fair_bulge, FillOptions{}.max_fair_bulge);
 }
 
+// stanford-bunny's real hole 1884 has a 55° rim corner between edges 0.00035 and 0.0030 long:
+// only a fan of three triangles at that corner, each within a degree of 15° and growing by
+// about 2.06, gets every angle to 15° (11.7° before the graded refinement's corner fans).
+TEST(HoleCaseQuality, NarrowRimCornerOfARealHoleGetsAGradedFan) {
+  std::string error;
+  const auto c = testing::load_case("stanford-bunny_real", error);
+  ASSERT_TRUE(c) << error;
+  Mesh mesh = build_mesh(c->holed).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  FillSelection one;
+  one.mode = FillSelection::Mode::Ids;
+  one.ids = {1884};
+  const FillReport report = fill_holes(mesh, one, {});
+  ASSERT_EQ(report.holes.size(), 1u);
+  const HoleFillReport& r = report.holes[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Fair);
+  const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
+  EXPECT_TRUE(problems.empty()) << problems;
+  EXPECT_GE(r.min_angle_deg, 15.0);
+}
+
 // rocker-arm_xl's 264-vertex hole on a curved part: the first faired patch crosses the
 // surrounding surface. Faired again with the crowded vertices collapsed before fairing, it no
 // longer does, and the faired fill is closer to the ground truth than every anchor (all of

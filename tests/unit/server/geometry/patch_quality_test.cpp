@@ -373,5 +373,40 @@ TEST(GradedRefinement, CornerNoVertexCanWidenIsLeftAsItWas) {
   EXPECT_EQ(triangles_of(h.mesh), before);
 }
 
+TEST(GradedRefinement, NarrowRimCornerBetweenUnequalEdgesGetsAGradedFan) {
+  // stanford-bunny #1884's corner, scaled: at C a 55° rim corner between C-A (1 long) and C-B
+  // (8.8 long), and a vertex X inside, 3.84 from C, whose triangles at C have 11.6° and 11.7°.
+  // Three triangles at C of 18.3° each, their sides growing by 2.06 at each, are the only fan
+  // whose angles all reach 15° (within a degree); no vertex inserted alone gets there.
+  const auto polar = [](double r, double deg) {
+    const double a = deg * std::numbers::pi / 180;
+    return Vec3(r * std::cos(a), r * std::sin(a), 0);
+  };
+  const std::vector<Vec3> points{{0, 0, 0},    polar(1, 0),    polar(3, -20),  polar(6, -5),
+                                 polar(9, 25), polar(8.8, 55), polar(3.84, 39)};
+  const int x = 6;
+  std::vector<std::array<int, 3>> fan;
+  for (int i = 0; i < 6; ++i) fan.push_back({i, (i + 1) % 6, x});
+  TwoRegionPatch h = two_region_patch(points, fan, {}, {0, 1, 2, 3, 4, 5});
+  ASSERT_EQ(h.patch.size(), 6u);
+  for (const FaceHandle f : h.patch) ASSERT_TRUE(f.is_valid());
+  ASSERT_LT(min_angle_deg(h.mesh, h.patch), 12.0);
+  std::vector<VertexHandle> added;
+  const GradedRefinementReport r = refine_graded(h.mesh, h.patch, h.regions, added);
+  EXPECT_GE(r.min_angle_after_deg, 15.0);
+  EXPECT_NEAR(r.min_angle_after_deg, min_angle_deg(h.mesh, h.patch), 1e-9);
+  EXPECT_GE(r.inserted, 1u);
+  // C's triangles now grow from the short edge to the long one in three steps.
+  std::size_t at_c = 0;
+  for (const FaceHandle f : h.patch)
+    for (const VertexHandle v : h.mesh.fv_range(f)) at_c += v == VertexHandle(0) ? 1 : 0;
+  EXPECT_EQ(at_c, 3u);
+  for (const FaceHandle f : h.patch)
+    for (const VertexHandle v : h.mesh.fv_range(f)) EXPECT_EQ(h.mesh.point(v)[2], 0.0);
+  h.mesh.garbage_collection();
+  EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
+  EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);  // only the outer border
+}
+
 }  // namespace
 }  // namespace touchmend::geometry
