@@ -93,13 +93,17 @@ struct FlipQuad {
 };
 
 class Patch {
-  //! One edit of a graded refinement: a flip of \p flip, the insertion of \p vertex (undone
-  //! by collapsing it into \p end), or a move of \p moved.
+  //! One edit of a graded refinement: a flip that made the edge \p flipped_from - \p
+  //! flipped_to, the insertion of \p vertex (undone by collapsing it into \p end), or a move of
+  //! \p moved. A flip is recorded by its edge's ends, not its handle: the collapse that undoes
+  //! a later edge split keeps one of the split edge's two handles, not necessarily the first, and
+  //! a flip recorded by handle then turned an edge that no longer was the one flipped (a random
+  //! fan refined with its rim push-offs: the mesh's links broke).
   struct Edit {
-    EdgeHandle flip;
-    VertexHandle vertex, end;
-    VertexHandle moved;  //!< or a move of this vertex from `from`
-    Vec3 from;
+    VertexHandle flipped_from = VertexHandle(), flipped_to = VertexHandle();
+    VertexHandle vertex = VertexHandle(), end = VertexHandle();
+    VertexHandle moved = VertexHandle();  //!< or a move of this vertex from `from`
+    Vec3 from = Vec3(0, 0, 0);
   };
   struct SplitFace {
     std::array<VertexHandle, 3> corners;
@@ -691,7 +695,7 @@ class Patch {
     mesh_.set_point(w, from);
     for (const FaceHandle f : mesh_.vf_range(w)) note_change(f);
     mesh_.set_point(w, target);
-    transaction.edits.push_back({EdgeHandle(), VertexHandle(), VertexHandle(), w, from});
+    transaction.edits.push_back({.moved = w, .from = from});
     return true;
   }
 
@@ -839,8 +843,7 @@ class Patch {
     for (const VertexHandle w : ring) {
       const Vec3 from = mesh_.point(w);
       for (const FaceHandle g : mesh_.vf_range(w)) note_change(g);
-      if (try_move(w))
-        transaction.edits.push_back({EdgeHandle(), VertexHandle(), VertexHandle(), w, from});
+      if (try_move(w)) transaction.edits.push_back({.moved = w, .from = from});
     }
     return true;
   }
@@ -865,8 +868,10 @@ class Patch {
   bool undo(Transaction& transaction, std::size_t mark) {
     while (transaction.edits.size() > mark) {
       const Edit& edit = transaction.edits.back();
-      if (edit.flip.is_valid()) {
-        mesh_.flip(edit.flip);
+      if (edit.flipped_from.is_valid()) {
+        const HalfedgeHandle h = mesh_.find_halfedge(edit.flipped_from, edit.flipped_to);
+        if (!h.is_valid() || !mesh_.is_flip_ok(mesh_.edge_handle(h))) return false;
+        mesh_.flip(mesh_.edge_handle(h));
       } else if (edit.moved.is_valid()) {
         mesh_.set_point(edit.moved, edit.from);
       } else {
@@ -988,7 +993,7 @@ class Patch {
   //! Records the insertion of \p v (undone by collapsing it into \p end) in \p transaction,
   //! then Lawson's flips around it: its link edges, and those a flip exposes, each recorded.
   void flip_around(Transaction& transaction, VertexHandle v, VertexHandle end) {
-    transaction.edits.push_back({EdgeHandle(), v, end, VertexHandle(), Vec3()});
+    transaction.edits.push_back({.vertex = v, .end = end});
     std::deque<EdgeHandle> queue;
     for (const HalfedgeHandle h : mesh_.voh_range(v))
       queue.push_back(mesh_.edge_handle(mesh_.next_halfedge_handle(h)));
@@ -997,7 +1002,9 @@ class Patch {
       const EdgeHandle e = queue.front();
       queue.pop_front();
       if (!try_flip(e)) continue;
-      transaction.edits.push_back({e, VertexHandle(), VertexHandle(), VertexHandle(), Vec3()});
+      const HalfedgeHandle flipped = mesh_.halfedge_handle(e, 0);
+      transaction.edits.push_back({.flipped_from = mesh_.from_vertex_handle(flipped),
+                                   .flipped_to = mesh_.to_vertex_handle(flipped)});
       for (int side = 0; side < 2; ++side) {
         const HalfedgeHandle h = mesh_.halfedge_handle(e, side);
         for (const HalfedgeHandle g :

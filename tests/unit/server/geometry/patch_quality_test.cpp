@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -406,6 +407,56 @@ TEST(GradedRefinement, NarrowRimCornerBetweenUnequalEdgesGetsAGradedFan) {
   h.mesh.garbage_collection();
   EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
   EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);  // only the outer border
+}
+
+TEST(GradedRefinement, RandomFansStayValidPlanarAndNeverGetWorse) {
+  // Star-shaped rims of random radii (edges of very unequal length, narrow and wide corners)
+  // fanned from the origin, a kernel point: the worst patches a fill could hand over. Every
+  // refinement, with its rim push-offs, segment splits and corner fans, must leave a valid disk
+  // in the plane with every triangle facing up, and never lower the smallest angle. (Trial 221
+  // broke the mesh's links while undo still flipped edges by handle: see Patch::Edit.)
+  std::mt19937 random(20261126);
+  std::uniform_real_distribution<double> radius(0.2, 3.0), jitter(0.0, 1.0);
+  std::size_t improved = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const int n = 4 + trial % 9;
+    std::vector<Vec3> points{{0, 0, 0}};
+    for (int i = 0; i < n; ++i) {
+      const double angle = 2 * std::numbers::pi * (i + 0.8 * jitter(random)) / n;
+      const double r = radius(random);
+      points.push_back(Vec3(r * std::cos(angle), r * std::sin(angle), 0));
+    }
+    // Every other patch in two regions, as a crease split leaves it: the spokes to the first
+    // rim vertex and to the middle one are segments, which may be split but never flipped.
+    std::vector<std::array<int, 3>> fan, second;
+    std::vector<int> rim;
+    for (int i = 0; i < n; ++i) {
+      (trial % 2 == 1 && i >= n / 2 ? second : fan).push_back({0, 1 + i, 1 + (i + 1) % n});
+      rim.push_back(1 + i);
+    }
+    TwoRegionPatch h = two_region_patch(points, fan, second, rim);
+    bool built = h.patch.size() == static_cast<std::size_t>(n);
+    for (const FaceHandle f : h.patch) built = built && f.is_valid();
+    if (!built) continue;  // a random rim may cross its outside triangles: not a patch
+    const double before = min_angle_deg(h.mesh, h.patch);
+    std::vector<VertexHandle> added;
+    const GradedRefinementReport r = refine_graded(h.mesh, h.patch, h.regions, added);
+    SCOPED_TRACE(trial);
+    EXPECT_GE(min_angle_deg(h.mesh, h.patch), before - 1e-9);
+    improved += min_angle_deg(h.mesh, h.patch) > before + 1e-9 ? 1 : 0;
+    EXPECT_EQ(h.regions.size(), h.patch.size());
+    for (const FaceHandle f : h.patch) {
+      ASSERT_FALSE(h.mesh.status(f).deleted());
+      const auto n_f = h.mesh.calc_face_normal(f);
+      EXPECT_GT(n_f[2], 0.0);
+      for (const VertexHandle v : h.mesh.fv_range(f)) EXPECT_EQ(h.mesh.point(v)[2], 0.0);
+    }
+    EXPECT_EQ(added.size(), r.inserted);
+    h.mesh.garbage_collection();
+    EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
+    EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);
+  }
+  EXPECT_GT(improved, 50u);  // the refinement does work on these, not only leave them be
 }
 
 }  // namespace
