@@ -731,11 +731,26 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     report.flips += flip_rim_slivers(mesh, faces, face_regions);
     report.phases.mend += seconds_since(t0);
   };
+  // The graded refinement (patch_quality.h) of the few triangles every pass before left under
+  // DESIGN's 15°, on the gathered patch.
+  const auto refine_thin = [&](bool keep_surface) {
+    if (!options.improve_quality) return;
+    const std::size_t thin = count_faces_below(mesh, faces, kRescueBelowDeg);
+    if (thin == 0 || thin > kGradedMaxTriangles) return;
+    const auto t0 = Clock::now();
+    GradedRefinementOptions graded;
+    graded.below_deg = kRescueBelowDeg;
+    graded.goal_deg = kRescueGoalDeg;
+    graded.keep_surface = keep_surface;
+    report.splits += refine_graded(mesh, faces, face_regions, vertices, graded).inserted;
+    report.phases.mend += seconds_since(t0);
+  };
   report.shape = PatchShape::Flat;
   if (!fair) {
     mend(/*keep_surface=*/true);
     gather();
     flip_slivers();
+    refine_thin(/*keep_surface=*/true);
     return {};
   }
   // Each region's free vertices are those whose faces all lie in it: the new vertices inside
@@ -850,16 +865,7 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
     }
     gather();
     flip_slivers();
-    if (const std::size_t thin = count_faces_below(mesh, faces, kRescueBelowDeg);
-        thin > 0 && thin <= kGradedMaxTriangles) {
-      const auto t0 = Clock::now();
-      GradedRefinementOptions graded;
-      graded.below_deg = kRescueBelowDeg;
-      graded.goal_deg = kRescueGoalDeg;
-      const GradedRefinementReport gr = refine_graded(mesh, faces, face_regions, vertices, graded);
-      report.splits += gr.inserted;
-      report.phases.mend += seconds_since(t0);
-    }
+    refine_thin(/*keep_surface=*/false);
   }
   report.shape = PatchShape::Fair;
   return {};

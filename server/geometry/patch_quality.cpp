@@ -671,6 +671,21 @@ class Patch {
     transaction_ = nullptr;
   }
 
+  //! Whether the patch's triangles at \p v lie in one plane (their normals within the fold
+  //! angle of a flat patch of each other).
+  bool coplanar_around(VertexHandle v) const {
+    Vec3 first(0, 0, 0);
+    for (const FaceHandle f : mesh_.vf_range(v)) {
+      if (!set_.contains(f)) continue;
+      const Vec3 n = mesh_.calc_face_normal(f);
+      if (first.norm() == 0)
+        first = n;
+      else if (OpenMesh::dot(first, n) < fold_cos_)
+        return false;
+    }
+    return true;
+  }
+
   //! A graded fan for a corner of the rim (corner_fans): the points to insert, in order, and
   //! the rim edge the corner's first triangle lies on (the walks start there).
   struct CornerFan {
@@ -737,6 +752,7 @@ class Patch {
         if (in_left && in_right && !interior(mesh_.edge_handle(h))) rims += 2;  // a segment
       }
       if (rims != 2 || !to_a.is_valid() || !to_b.is_valid() || !(normal.norm() > 0)) continue;
+      if (options_.keep_surface && !coplanar_around(v)) continue;  // the fan's plane is the surface
       if (corner >= 170.0 * kRadian) continue;  // the tangent plane sides would be ambiguous
       const Vec3 a = mesh_.point(mesh_.to_vertex_handle(to_a)) - pv;
       const Vec3 b = mesh_.point(mesh_.to_vertex_handle(to_b)) - pv;
@@ -1227,7 +1243,7 @@ GradedRefinementReport refine_graded(Mesh& mesh, std::vector<FaceHandle>& patch_
   PatchQualityOptions quality;
   quality.target_min_angle_deg = options.goal_deg;
   quality.max_turn_deg = options.max_turn_deg;
-  quality.keep_surface = false;
+  quality.keep_surface = options.keep_surface;
   quality.apex_moves = true;
   Patch patch(mesh, patch_faces, new_vertices, quality);
   if (!face_regions.empty()) patch.set_regions(face_regions);

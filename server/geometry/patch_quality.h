@@ -142,6 +142,10 @@ struct GradedRefinementOptions {
   int max_insertions = 6;
   //! A flip may turn a triangle's normal by at most this (as the fill's last quality pass).
   double max_turn_deg = 60.0;
+  //! The patch is final as it is (flat, PatchQualityOptions::keep_surface): new vertices lie on
+  //! its triangles, flips and moves keep its surface, a walk across a fold splits the fold at
+  //! its midpoint, and a corner fan is tried only where the corner's triangles are coplanar.
+  bool keep_surface = false;
 };
 
 struct GradedRefinementReport {

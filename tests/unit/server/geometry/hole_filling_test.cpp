@@ -144,15 +144,17 @@ TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
   ASSERT_TRUE(r.filled) << r.reason;
   EXPECT_EQ(r.shape, PatchShape::Flat) << r.shape_reason;
   EXPECT_NE(r.shape_reason.find("sharp edges"), std::string::npos) << r.shape_reason;
-  // Every new vertex lies inside the cube, no farther than a cell from its true surface.
+  // Every new vertex lies inside the cube, no farther than a cell from its true surface (the
+  // graded refinement may split a chord across the edge at its midpoint, which lies a cell in).
   for (const auto v : r.new_vertices) {
     const Vec3 p = run.mesh.point(v);
     for (int k = 0; k < 3; ++k) {
       EXPECT_GE(p[k], -1e-9);
       EXPECT_LE(p[k], 8 + 1e-9);
     }
-    EXPECT_LT(std::min(8 - p[0], 8 - p[2]), 1.0);
+    EXPECT_LE(std::min(8 - p[0], 8 - p[2]), 1.0 + 1e-9);
   }
+  EXPECT_GE(r.min_angle_deg, 15.0);
 }
 
 TEST(FillHole, DefaultFillKeepsTheCubeEdgeThroughTheHole) {

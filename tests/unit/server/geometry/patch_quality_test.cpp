@@ -356,6 +356,38 @@ TEST(GradedRefinement, StripBesideACreaseIsMendedBySplittingTheCrease) {
   EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);  // only the outer border
 }
 
+TEST(GradedRefinement, FlatPatchKeepsItsSurfaceAndSplitsItsFold) {
+  // The strip of the test above in one region, the apex side tilted up by 45° about A-B: a
+  // flat patch (the fill's 3D triangulation of a CAD boundary) folded along A-B. Kept as it is,
+  // every new vertex lies on one of its two planes, the fold is split at its midpoint as a
+  // segment would be, and the strip is mended.
+  const double c = std::sqrt(0.5);
+  const std::vector<Vec3> points{{0, 0, 0}, {2, -1, 0}, {8, -1, 0}, {10, 0, 0}, {5, 6 * c, 6 * c}};
+  TwoRegionPatch h =
+      two_region_patch(points, {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}}, {}, {0, 1, 2, 3, 4});
+  ASSERT_EQ(h.patch.size(), 3u);
+  for (const FaceHandle f : h.patch) ASSERT_TRUE(f.is_valid());
+  ASSERT_LT(min_angle_deg(h.mesh, h.patch), 7.2);
+  std::vector<VertexHandle> added;
+  GradedRefinementOptions flat;
+  flat.keep_surface = true;
+  const GradedRefinementReport r = refine_graded(h.mesh, h.patch, h.regions, added, flat);
+  EXPECT_GE(r.min_angle_after_deg, 15.0);
+  EXPECT_GE(r.inserted, 1u);
+  bool on_fold = false;
+  for (const FaceHandle f : h.patch)
+    for (const VertexHandle v : h.mesh.fv_range(f)) {
+      const Vec3 p = h.mesh.point(v);
+      // Below the fold the plane z = 0, above it the plane y = z.
+      EXPECT_NEAR(p[1] <= 0 ? p[2] : p[2] - p[1], 0.0, 1e-12);
+      on_fold = on_fold || (p[1] == 0.0 && p[2] == 0.0 && p[0] > 0 && p[0] < 10);
+    }
+  EXPECT_TRUE(on_fold) << "the fold A-B was split";
+  h.mesh.garbage_collection();
+  EXPECT_TRUE(validate_mesh(h.mesh).is_clean());
+  EXPECT_EQ(find_holes(h.mesh).holes.size(), 1u);
+}
+
 TEST(GradedRefinement, CornerNoVertexCanWidenIsLeftAsItWas) {
   // Region 0 is one triangle A-D-C, two sides on the rim and one (A-C) on the crease: its
   // 9.5° corner at A lies between the rim and the crease, so every triangle there keeps it.
