@@ -635,20 +635,37 @@ TEST(HoleCasesShape, CoarseCurvedSurfaceIsFairedAndBalloonsStayFlat) {
   EXPECT_LT(auto2_score.mean_permille, 0.75 * fair2_score.mean_permille);
 }
 
+//! A real-hole case's mesh with hole \p id (find_holes numbering) filled with the defaults.
+struct RealHoleFill {
+  Mesh mesh;
+  std::vector<Hole> holes;  //!< before the fill
+  testing::Snapshot before;
+  FillReport report;
+};
+std::optional<RealHoleFill> fill_real_hole(const std::string& name, std::uint32_t id) {
+  std::string error;
+  const auto c = testing::load_case(name, error);
+  EXPECT_TRUE(c) << error;
+  if (!c) return std::nullopt;
+  RealHoleFill out;
+  out.mesh = build_mesh(c->holed).mesh;
+  out.holes = find_holes(out.mesh).holes;
+  out.before = testing::take_snapshot(out.mesh);
+  FillSelection one;
+  one.mode = FillSelection::Mode::Ids;
+  one.ids = {id};
+  out.report = fill_holes(out.mesh, one, {});
+  return out;
+}
+
 // Just past the balloon limit the triangulation decides: mech-holes-shark's hole 7 balloons
 // (0.51 hole radii) as the 3D triangulation's faired patch, and the piecewise method's faired
 // patch, which stays under the limit, is built and kept.
 TEST(HoleCasesShape, NearTheBalloonLimitTheOtherMethodIsFaired) {
-  std::string error;
-  const auto c = testing::load_case("mech-holes-shark_real", error);
-  ASSERT_TRUE(c) << error;
-  Mesh mesh = build_mesh(c->holed).mesh;
-  FillSelection one;
-  one.mode = FillSelection::Mode::Ids;
-  one.ids = {7};
-  const FillReport report = fill_holes(mesh, one, {});
-  ASSERT_EQ(report.holes.size(), 1u);
-  const HoleFillReport& r = report.holes[0];
+  const auto fill = fill_real_hole("mech-holes-shark_real", 7);
+  ASSERT_TRUE(fill);
+  ASSERT_EQ(fill->report.holes.size(), 1u);
+  const HoleFillReport& r = fill->report.holes[0];
   ASSERT_TRUE(r.filled) << r.reason;
   EXPECT_EQ(r.shape, PatchShape::Fair);
   EXPECT_EQ(r.method, FillMethod::Piecewise);
@@ -662,21 +679,14 @@ TEST(HoleCasesShape, NearTheBalloonLimitTheOtherMethodIsFaired) {
 // only a fan of three triangles at that corner, each within a degree of 15° and growing by
 // about 2.06, gets every angle to 15° (11.7° before the graded refinement's corner fans).
 TEST(HoleCaseQuality, NarrowRimCornerOfARealHoleGetsAGradedFan) {
-  std::string error;
-  const auto c = testing::load_case("stanford-bunny_real", error);
-  ASSERT_TRUE(c) << error;
-  Mesh mesh = build_mesh(c->holed).mesh;
-  const auto holes = find_holes(mesh).holes;
-  const testing::Snapshot before = testing::take_snapshot(mesh);
-  FillSelection one;
-  one.mode = FillSelection::Mode::Ids;
-  one.ids = {1884};
-  const FillReport report = fill_holes(mesh, one, {});
-  ASSERT_EQ(report.holes.size(), 1u);
-  const HoleFillReport& r = report.holes[0];
+  const auto fill = fill_real_hole("stanford-bunny_real", 1884);
+  ASSERT_TRUE(fill);
+  ASSERT_EQ(fill->report.holes.size(), 1u);
+  const HoleFillReport& r = fill->report.holes[0];
   ASSERT_TRUE(r.filled) << r.reason;
   EXPECT_EQ(r.shape, PatchShape::Fair);
-  const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
+  const std::string problems =
+      testing::check_fill_invariants(fill->before, fill->mesh, fill->report.holes, fill->holes);
   EXPECT_TRUE(problems.empty()) << problems;
   EXPECT_GE(r.min_angle_deg, 15.0);
 }
