@@ -623,8 +623,11 @@ class Patch {
         std::vector<VertexHandle> inside;
         for (const VertexHandle w : mesh_.vv_range(apex)) {
           Vec3 normal;
-          if ((mesh_.point(w) - mesh_.point(apex)).norm() < fan.reach && free(w, normal))
+          if ((mesh_.point(w) - mesh_.point(apex)).norm() < fan.reach && free(w, normal)) {
+            // A flat patch's vertex moves only within the plane of the fan.
+            if (options_.keep_surface && !in_plane_around(w, fan.normal)) return false;
             inside.push_back(w);
+          }
         }
         for (const VertexHandle w : inside) {
           std::size_t nearest = fan.points.size();
@@ -665,24 +668,21 @@ class Patch {
       }
       if (best_score < 0 || !insert(best, /*moves=*/true)) {
         if (!undo(transaction, mark)) break;  // a fan may stop part way
+        find_face(corners, worst);            // the undo may restore it under a new handle
         stuck.insert(worst.idx());
       }
     }
     transaction_ = nullptr;
   }
 
-  //! Whether the patch's triangles at \p v lie in one plane (their normals within the fold
-  //! angle of a flat patch of each other).
-  bool coplanar_around(VertexHandle v) const {
-    Vec3 first(0, 0, 0);
-    for (const FaceHandle f : mesh_.vf_range(v)) {
-      if (!set_.contains(f)) continue;
-      const Vec3 n = mesh_.calc_face_normal(f);
-      if (first.norm() == 0)
-        first = n;
-      else if (OpenMesh::dot(first, n) < fold_cos_)
+  //! Whether the patch's triangles at \p v lie in one plane with normal \p normal (to
+  //! rounding): a fan keeping a flat patch's surface needs its corner and the neighbours it
+  //! moves in the plane its points are placed in.
+  bool in_plane_around(VertexHandle v, const Vec3& normal) const {
+    constexpr double kSamePlaneCos = 1 - 1e-12;
+    for (const FaceHandle f : mesh_.vf_range(v))
+      if (set_.contains(f) && OpenMesh::dot(normal, mesh_.calc_face_normal(f)) < kSamePlaneCos)
         return false;
-    }
     return true;
   }
 
@@ -691,7 +691,8 @@ class Patch {
   struct CornerFan {
     std::vector<Vec3> points;
     HalfedgeHandle rim;
-    double reach = 0;  //!< the long rim edge's length
+    double reach = 0;      //!< the long rim edge's length
+    Vec3 normal{0, 0, 1};  //!< of the plane the points are placed in
   };
 
   //! Moves \p w to \p target, recorded in \p transaction, unless a triangle around it would
@@ -752,7 +753,6 @@ class Patch {
         if (in_left && in_right && !interior(mesh_.edge_handle(h))) rims += 2;  // a segment
       }
       if (rims != 2 || !to_a.is_valid() || !to_b.is_valid() || !(normal.norm() > 0)) continue;
-      if (options_.keep_surface && !coplanar_around(v)) continue;  // the fan's plane is the surface
       if (corner >= 170.0 * kRadian) continue;  // the tangent plane sides would be ambiguous
       const Vec3 a = mesh_.point(mesh_.to_vertex_handle(to_a)) - pv;
       const Vec3 b = mesh_.point(mesh_.to_vertex_handle(to_b)) - pv;
@@ -773,6 +773,7 @@ class Patch {
       }
       if (best_k == 0) continue;
       normal.normalize();
+      if (options_.keep_surface && !in_plane_around(v, normal)) continue;
       Vec3 u = a - OpenMesh::dot(a, normal) * normal;
       if (!(u.norm() > 0)) continue;
       u.normalize();
@@ -781,6 +782,7 @@ class Patch {
       CornerFan fan;
       fan.rim = to_a;
       fan.reach = std::max(a.norm(), b.norm());
+      fan.normal = normal;
       const double grow = std::pow(ratio, 1.0 / best_k);
       for (int i = 1; i < best_k; ++i) {
         const double angle = i * corner / best_k;
