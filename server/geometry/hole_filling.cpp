@@ -643,7 +643,8 @@ constexpr double kRescueGoalDeg = 25.0;
 //! every pass before left under 15° beside a short fixed edge (one or two per hole on the
 //! cases). A patch with more is broken in another way (measured: rocker-arm_xl's first faired
 //! patch, which then crosses the mesh and is made again, has dozens under 15° down to 0.6°; the
-//! refinement spent 6.4 ms there on a patch the check refuses).
+//! refinement spent 6.4 ms there on a patch the check refuses). On flat patches a limit of 12
+//! or 30 mended no more of the random holes cut into the shared meshes than 4 does.
 constexpr std::size_t kGradedMaxTriangles = 4;
 
 //! Refines the inserted patch, mends its triangles (patch_quality.h) and gives it its shape.
