@@ -893,9 +893,7 @@ class Patch {
       } else if (edit.moved.is_valid()) {
         mesh_.set_point(edit.moved, edit.from);
       } else {
-        HalfedgeHandle back;
-        for (const HalfedgeHandle h : mesh_.voh_range(edit.vertex))
-          if (mesh_.to_vertex_handle(h) == edit.end) back = h;
+        const HalfedgeHandle back = mesh_.find_halfedge(edit.vertex, edit.end);
         if (!back.is_valid() || !mesh_.is_collapse_ok(back)) return false;
         mesh_.collapse(back);
       }
