@@ -755,6 +755,107 @@ TEST(HoleCasesRandom, RandomHolesCutIntoEveryMeshAreFilledCleanly) {
   EXPECT_GE(closed, fills * 95 / 100);
 }
 
+// How a rim is damaged in RandomHolesWithDamagedRimsAreFilledOrLeftOpenCleanly.
+enum class RimDamage {
+  Jitter,         //!< moved by up to 30% of the mean rim edge along each axis
+  NearDuplicate,  //!< moved to a tenth of its distance from its next rim neighbour
+  Straight,       //!< moved onto the chord between its rim neighbours (a 180° rim corner)
+  Pinch,          //!< moved 50-140% of the way to the hole's centroid (a rim that may fold over)
+  NearStraight,   //!< onto that chord, then by up to 5% of the mean rim edge off it
+};
+
+//! Damages up to a quarter of the vertices of every hole's rim in \p soup (distinct, no two
+//! adjacent). Straight rims are made only at vertices with two or more faces: at a vertex with
+//! one face it would make that face degenerate, which the fill rightly does not build against.
+void damage_rims(MeshSoup& soup, RimDamage damage, std::mt19937& random) {
+  const Mesh mesh = build_mesh(soup).mesh;
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (const Hole& hole : find_holes(mesh).holes) {
+    const std::size_t n = hole.loop.size();
+    if (n < 4) continue;
+    double mean_edge = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      mean_edge += (mesh.point(hole.loop[i]) - mesh.point(hole.loop[(i + 1) % n])).norm();
+    mean_edge /= static_cast<double>(n);
+    std::vector<char> damaged(n, 0);
+    const int count = std::uniform_int_distribution<int>(1, std::max<int>(1, n / 4))(random);
+    for (int c = 0; c < count; ++c) {
+      const std::size_t i = std::uniform_int_distribution<std::size_t>(0, n - 1)(random);
+      if (damaged[i] || damaged[(i + 1) % n] || damaged[(i + n - 1) % n]) continue;
+      damaged[i] = 1;
+      const Vec3 prev = mesh.point(hole.loop[(i + n - 1) % n]),
+                 next = mesh.point(hole.loop[(i + 1) % n]);
+      Vec3& p = soup.points[static_cast<std::size_t>(hole.loop[i].idx())];
+      const Vec3 wobble(unit(random), unit(random), unit(random));
+      switch (damage) {
+        case RimDamage::Jitter:
+          p += 0.3 * mean_edge * wobble;
+          break;
+        case RimDamage::NearDuplicate:
+          p = next + 0.1 * (p - next);
+          break;
+        case RimDamage::Straight:
+          if (mesh.valence(hole.loop[i]) > 2) p = 0.5 * (prev + next);
+          break;
+        case RimDamage::Pinch:
+          p += std::uniform_real_distribution<double>(0.5, 1.4)(random) * (hole.centroid - p);
+          break;
+        case RimDamage::NearStraight:
+          p = 0.5 * (prev + next) + 0.05 * mean_edge * wobble;
+          break;
+      }
+    }
+  }
+}
+
+// Holes whose rims a scanner or an earlier edit left damaged: nearly coincident rim vertices,
+// straight and nearly straight runs (180° rim corners), jittered and pinched rims that may fold
+// over. Every hole is either filled with the invariants kept (no degenerate or intersecting
+// triangle, manifold, nothing else changed) or left open with its reason. With this seed a
+// mech-holes-shark hole had a 0.02° triangle before Liepa's centroid split left nearly
+// straight rim caps alone (refinement.cpp; 2 of 12 seeds tried had such a hole, none now).
+TEST(HoleCasesRandom, RandomHolesWithDamagedRimsAreFilledOrLeftOpenCleanly) {
+  std::mt19937 random(11);
+  std::size_t fills = 0, closed = 0, pinched = 0, pinched_closed = 0;
+  for (const char* name : {"couplingdown.off", "fandisk.obj", "hand.off", "mech-holes-shark.off",
+                           "rocker-arm.obj", "sphere966.off", "spot.obj"}) {
+    const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/" + name);
+    ASSERT_TRUE(read.ok) << read.error;
+    Box3 box;
+    for (const Vec3& p : read.soup.points) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+    const double diagonal = box.diagonal().norm();
+    for (int trial = 0; trial < 20; ++trial) {
+      const auto damage = static_cast<RimDamage>(trial % 5);
+      const Vec3 centre = read.soup.points[std::uniform_int_distribution<std::size_t>(
+          0, read.soup.points.size() - 1)(random)];
+      const double radius = diagonal * std::uniform_real_distribution<double>(0.01, 0.06)(random);
+      SCOPED_TRACE(std::string(name) + " trial " + std::to_string(trial));
+      MeshSoup holed = testing::remove_faces(
+          read.soup, [&](const Vec3& c) { return (c - centre).norm() < radius; });
+      damage_rims(holed, damage, random);
+      Mesh mesh = build_mesh(holed).mesh;
+      const auto holes = find_holes(mesh).holes;
+      const testing::Snapshot before = testing::take_snapshot(mesh);
+      const FillReport report = fill_holes(mesh, {}, {});
+      const std::string problems =
+          testing::check_fill_invariants(before, mesh, report.holes, holes);
+      EXPECT_TRUE(problems.empty()) << problems;
+      for (const HoleFillReport& r : report.holes) {
+        EXPECT_TRUE(r.filled || !r.reason.empty());  // an open hole says why
+        const bool pinch = damage == RimDamage::Pinch;
+        ++(pinch ? pinched : fills);
+        (pinch ? pinched_closed : closed) += r.filled ? 1 : 0;
+      }
+    }
+  }
+  // Jittered, near-duplicate and straight rims are almost always closed (96-99% over 12 seeds);
+  // a pinched rim folds over in about half the cases, and its hole then cannot be closed
+  // without crossing it (44-63% closed).
+  EXPECT_GE(fills, 112u);  // at least one hole per trial
+  EXPECT_GE(closed, fills * 90 / 100);
+  EXPECT_GE(pinched_closed, pinched / 3);
+}
+
 // rocker-arm_xl's 264-vertex hole on a curved part: the first faired patch crosses the
 // surrounding surface. Faired again with the crowded vertices collapsed before fairing, it no
 // longer does, and the faired fill is closer to the ground truth than every anchor (all of
