@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <unordered_map>
 
 #include <fmt/format.h>
@@ -647,6 +648,9 @@ constexpr double kRescueGoalDeg = 25.0;
 //! or 30 mended no more of the random holes cut into the shared meshes than 4 does.
 constexpr std::size_t kGradedMaxTriangles = 4;
 
+//! A fill with a smaller angle has a (numerically) degenerate triangle: its normal is noise.
+constexpr double kDegenerateAngleDeg = 0.1;
+
 //! Refines the inserted patch, mends its triangles (patch_quality.h) and gives it its shape.
 //! A hole split along crease curves is worked region by region (\p face_pieces; one region
 //! otherwise), so no flip crosses a curve and each region is faired on its own with the others
@@ -984,6 +988,8 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     bool fair;
     bool fallback;
     bool collapse_early = false;
+    //! The repeat of an attempt refused only for a degenerate triangle (see below).
+    bool accept_degenerate = false;
   };
   constexpr std::size_t kFirstCrossed = static_cast<std::size_t>(-1);
   std::vector<Attempt> attempts;
@@ -1047,7 +1053,21 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   double balloon_bulge = 0;
   double last_bulge = 0;
   bool retried = false;
-  for (const Attempt& step : attempts) {
+  // A patch with a (numerically) degenerate triangle is refused while another attempt may close
+  // the hole without one (a crease curve drawn along a rim edge a tenth as long as its
+  // neighbours, a rim pinched over itself: found by the damaged-rim random holes); when none
+  // does, the first such attempt is repeated and kept, since a closed hole with a sliver is
+  // more use than an open one. Never triggered on the shared cases, whose worst fill angle is
+  // 15° (8.5° with --sharp off).
+  std::optional<Attempt> degenerate_attempt;
+  bool degenerate_repeated = false;
+  for (std::size_t next_attempt = 0;; ++next_attempt) {
+    if (next_attempt == attempts.size()) {
+      if (!degenerate_attempt || degenerate_repeated) break;
+      attempts.push_back(*degenerate_attempt);
+      degenerate_repeated = true;
+    }
+    const Attempt step = attempts[next_attempt];
     {
       std::size_t m = step.method;
       if (m == kFirstCrossed) {
@@ -1058,7 +1078,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         retried = true;
       }
       const FillMethod method = methods[m];
-      if (dead[m] || (step.fallback && !refused_fair[m])) continue;
+      if (!step.accept_degenerate && (dead[m] || (step.fallback && !refused_fair[m]))) continue;
       const bool fair = step.fair;
       if (balloon_bulge > 0 && whole_hole_fairing(m, fair)) {
         shape_warnings.push_back(
@@ -1142,6 +1162,17 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         refused = fair ? "the faired patch would intersect the mesh"
                        : "the new faces would intersect existing faces";
       if (crosses && fair) crossed_fair[m] = 1;
+      if (refused.empty() && !step.accept_degenerate) {
+        const double worst = min_angle_deg(mesh, faces);
+        if (worst < kDegenerateAngleDeg) {
+          refused = fmt::format("it leaves a degenerate triangle ({:.3f}°)", worst);
+          if (!degenerate_attempt) {
+            degenerate_attempt = step;
+            degenerate_attempt->method = m;  // resolved (kFirstCrossed)
+            degenerate_attempt->accept_degenerate = true;
+          }
+        }
+      }
       if (!refused.empty()) {
         remove_patch(mesh, faces, vertices);
         if (fair) {

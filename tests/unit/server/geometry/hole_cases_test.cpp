@@ -794,6 +794,45 @@ TEST(HoleCasesRandom, RandomHolesCutIntoEveryMeshAreFilledCleanly) {
   EXPECT_GE(closed, fills * 95 / 100);
 }
 
+// A couplingdown cut whose centre vertex stays on the rim, moved to a tenth of its distance
+// from the next rim vertex (a damaged rim, as RandomHolesWithDamagedRimsAreFilledOrLeftOpenCleanly
+// makes them; found with another seed of it). The crease split draws its curve along the new
+// 0.005-long rim edge and leaves triangles of 0.003°; such a patch is refused while another
+// method closes the hole without a degenerate triangle, which one here does.
+TEST(HoleCasesRandom, PatchWithADegenerateTriangleGivesWayToAnotherMethod) {
+  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/couplingdown.off");
+  ASSERT_TRUE(read.ok) << read.error;
+  const Vec3 centre(-0.30123800000000001, -0.38917299999999999, 0.15723300000000001);
+  MeshSoup holed = testing::remove_faces(
+      read.soup, [&](const Vec3& c) { return (c - centre).norm() < 0.031055353897221093; });
+  {
+    const Mesh cut = build_mesh(holed).mesh;
+    bool moved = false;
+    for (const Hole& hole : find_holes(cut).holes)
+      for (std::size_t i = 0; i < hole.loop.size(); ++i) {
+        Vec3& p = holed.points[static_cast<std::size_t>(hole.loop[i].idx())];
+        if (p != centre) continue;
+        const Vec3 next = cut.point(hole.loop[(i + 1) % hole.loop.size()]);
+        p = next + 0.1 * (p - next);
+        moved = true;
+      }
+    ASSERT_TRUE(moved);
+  }
+  Mesh mesh = build_mesh(holed).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  const FillReport report = fill_holes(mesh, {}, {});
+  const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
+  EXPECT_TRUE(problems.empty()) << problems;
+  bool refused = false;
+  for (const HoleFillReport& r : report.holes) {
+    EXPECT_TRUE(r.filled) << r.reason;
+    EXPECT_GE(r.min_angle_deg, 0.1);
+    for (const auto& w : r.warnings) refused = refused || w.find("degenerate") != std::string::npos;
+  }
+  EXPECT_TRUE(refused);  // the split's patch was built and refused
+}
+
 // How a rim is damaged in RandomHolesWithDamagedRimsAreFilledOrLeftOpenCleanly.
 enum class RimDamage {
   Jitter,         //!< moved by up to 30% of the mean rim edge along each axis

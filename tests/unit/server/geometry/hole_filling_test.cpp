@@ -254,6 +254,36 @@ TEST(FillHole, ThreeEdgeHoleGetsOneTriangle) {
   EXPECT_TRUE(find_holes(run.mesh).holes.empty());
 }
 
+// A three-edge hole whose corners are all but collinear (one moved to a millionth of the
+// hole's size off the opposite edge): its one possible triangle is degenerate. Every method is
+// refused for it, and the first is then repeated and kept: a closed hole with a sliver is more
+// use than an open one (hole_filling.cpp, the degenerate-triangle rule).
+TEST(FillHole, ThreeEdgeHoleWithNearlyCollinearCornersIsStillClosed) {
+  MeshSoup s = testing::grid(4, 4);
+  const std::size_t removed = 10;  // an interior triangle
+  const auto corners = s.triangles[removed];
+  s.triangles.erase(s.triangles.begin() + static_cast<std::ptrdiff_t>(removed));
+  const Vec3 a = s.points[corners[0]], b = s.points[corners[1]];
+  Vec3& c = s.points[corners[2]];
+  const Vec3 middle = 0.5 * (a + b);
+  c = middle + 1e-6 * (c - middle);
+  Mesh mesh = build_mesh(s).mesh;
+  std::vector<Hole> holes;
+  for (const Hole& h : find_holes(mesh).holes)
+    if (h.loop.size() == 3) holes.push_back(h);
+  ASSERT_EQ(holes.size(), 1u);
+  const HoleFillReport r = fill_hole(mesh, holes[0], {});
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.faces_added, 1u);
+  EXPECT_LT(r.min_angle_deg, 0.1);
+  bool said = false;
+  for (const auto& w : r.warnings) said = said || w.find("degenerate") != std::string::npos;
+  EXPECT_TRUE(said);
+  const ValidationReport v = validate_mesh(mesh);
+  EXPECT_EQ(v.non_manifold_edges, 0u);
+  EXPECT_EQ(v.inconsistent_edges, 0u);
+}
+
 TEST(FillHole, ThousandVertexHole) {
   const MeshSoup s = testing::annulus(1000, 100.0, 3, 0.7);
   const FillRun run = fill_and_check(s, {}, [](const Hole& h) {
