@@ -692,26 +692,54 @@ TEST(HoleCaseQuality, NarrowRimCornerOfARealHoleGetsAGradedFan) {
   EXPECT_GE(r.min_angle_deg, 15.0);
 }
 
+//! One hole cut into a shared mesh (the faces whose centroid lies within \p radius of \p centre)
+//! and filled with the defaults.
+struct CutFill {
+  Mesh mesh;
+  std::vector<Hole> holes;
+  testing::Snapshot before;
+  FillReport report;
+  std::vector<TrianglePoints> removed;  //!< the cut faces: the ground truth
+  double diagonal = 0;                  //!< of the mesh's bounding box
+};
+
+std::optional<CutFill> fill_one_cut(const std::string& mesh_name, const Vec3& centre,
+                                    double radius) {
+  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/" + mesh_name);
+  EXPECT_TRUE(read.ok) << read.error;
+  if (!read.ok) return std::nullopt;
+  CutFill out;
+  Box3 box;
+  for (const Vec3& p : read.soup.points) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  out.diagonal = box.diagonal().norm();
+  std::vector<std::array<Vec3, 3>> removed;
+  const MeshSoup holed = testing::remove_faces(
+      read.soup, [&](const Vec3& c) { return (c - centre).norm() < radius; }, &removed);
+  for (const auto& t : removed) out.removed.push_back({t[0], t[1], t[2]});
+  out.mesh = build_mesh(holed).mesh;
+  out.holes = find_holes(out.mesh).holes;
+  EXPECT_EQ(out.holes.size(), 1u);
+  out.before = testing::take_snapshot(out.mesh);
+  out.report = fill_holes(out.mesh, {}, {});
+  EXPECT_EQ(out.report.holes.size(), 1u);
+  if (out.holes.size() != 1 || out.report.holes.size() != 1) return std::nullopt;
+  EXPECT_TRUE(out.report.holes[0].filled) << out.report.holes[0].reason;
+  if (!out.report.holes[0].filled) return std::nullopt;
+  const std::string problems =
+      testing::check_fill_invariants(out.before, out.mesh, out.report.holes, out.holes);
+  EXPECT_TRUE(problems.empty()) << problems;
+  return out;
+}
+
 // A hole cut into fandisk (the faces within 0.445 of a point near a crease): its patch stays
 // flat, and after every pass one triangle was left at 13.2°. The graded refinement, keeping
 // the flat patch's surface, mends it (17.6°).
 TEST(HoleCaseQuality, FlatPatchLeftUnderFifteenDegreesIsRefinedInItsSurface) {
-  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/fandisk.obj");
-  ASSERT_TRUE(read.ok) << read.error;
-  const Vec3 centre(2.81237, 16.089899, -0.788448);
-  const MeshSoup holed = testing::remove_faces(
-      read.soup, [&](const Vec3& c) { return (c - centre).norm() < 0.4449894976692565; });
-  Mesh mesh = build_mesh(holed).mesh;
-  const auto holes = find_holes(mesh).holes;
-  ASSERT_EQ(holes.size(), 1u);
-  const testing::Snapshot before = testing::take_snapshot(mesh);
-  const FillReport report = fill_holes(mesh, {}, {});
-  ASSERT_EQ(report.holes.size(), 1u);
-  const HoleFillReport& r = report.holes[0];
-  ASSERT_TRUE(r.filled) << r.reason;
+  const auto cut =
+      fill_one_cut("fandisk.obj", Vec3(2.81237, 16.089899, -0.788448), 0.4449894976692565);
+  ASSERT_TRUE(cut);
+  const HoleFillReport& r = cut->report.holes[0];
   EXPECT_EQ(r.shape, PatchShape::Flat) << r.shape_reason;
-  const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
-  EXPECT_TRUE(problems.empty()) << problems;
   EXPECT_GE(r.min_angle_deg, 15.0);
 }
 
@@ -722,36 +750,53 @@ TEST(HoleCaseQuality, FlatPatchLeftUnderFifteenDegreesIsRefinedInItsSurface) {
 // mend. A crease split's flat region has no fold worth keeping (hole_filling.cpp, mend): with
 // its folds mended the fill has no triangle under 15° and is no farther from the removed faces.
 TEST(HoleCaseQuality, CreaseSplitFlatRegionsMendTheirFolds) {
-  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/fandisk.obj");
-  ASSERT_TRUE(read.ok) << read.error;
-  Box3 box;
-  for (const Vec3& p : read.soup.points) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
-  const Vec3 centre(0, 14.9066, -1.64063);
-  std::vector<std::array<Vec3, 3>> removed;
-  const MeshSoup holed = testing::remove_faces(
-      read.soup, [&](const Vec3& c) { return (c - centre).norm() < 0.58930784135394643; },
-      &removed);
-  Mesh mesh = build_mesh(holed).mesh;
-  const auto holes = find_holes(mesh).holes;
-  ASSERT_EQ(holes.size(), 1u);
-  const testing::Snapshot before = testing::take_snapshot(mesh);
-  const FillReport report = fill_holes(mesh, {}, {});
-  ASSERT_EQ(report.holes.size(), 1u);
-  const HoleFillReport& r = report.holes[0];
-  ASSERT_TRUE(r.filled) << r.reason;
+  const auto cut = fill_one_cut("fandisk.obj", Vec3(0, 14.9066, -1.64063), 0.58930784135394643);
+  ASSERT_TRUE(cut);
+  const HoleFillReport& r = cut->report.holes[0];
   EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
   EXPECT_EQ(r.shape, PatchShape::Flat) << r.shape_reason;
-  const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
-  EXPECT_TRUE(problems.empty()) << problems;
   EXPECT_GE(r.min_angle_deg, 15.0);
-  std::vector<TrianglePoints> truth;
-  for (const auto& t : removed) truth.push_back({t[0], t[1], t[2]});
-  const double diagonal = box.diagonal().norm();
   const SurfaceDistance d =
-      surface_distance(face_triangles(mesh, r.new_faces), truth, 0.002 * diagonal);
+      surface_distance(face_triangles(cut->mesh, r.new_faces), cut->removed, 0.002 * cut->diagonal);
   ASSERT_TRUE(d.valid);
   // 6.52‰ with every fold kept (the corner the unmatched creases make is not modelled).
-  EXPECT_LE(1000 * d.mean / diagonal, 6.52);
+  EXPECT_LE(1000 * d.mean / cut->diagonal, 6.52);
+}
+
+//! For each shared mesh, \p trials cuts: the faces within a random radius (1% to \p max_radius
+//! of the diagonal) of a random vertex removed; \p visit(holed soup, trial) under a trace that
+//! names the mesh and trial.
+template <typename Visit>
+void for_each_random_cut(std::mt19937& random, int trials, double max_radius, Visit&& visit) {
+  for (const char* name : {"couplingdown.off", "fandisk.obj", "hand.off", "mech-holes-shark.off",
+                           "rocker-arm.obj", "sphere966.off", "spot.obj"}) {
+    const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/" + name);
+    ASSERT_TRUE(read.ok) << read.error;
+    Box3 box;
+    for (const Vec3& p : read.soup.points) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
+    const double diagonal = box.diagonal().norm();
+    for (int trial = 0; trial < trials; ++trial) {
+      const Vec3 centre = read.soup.points[std::uniform_int_distribution<std::size_t>(
+          0, read.soup.points.size() - 1)(random)];
+      const double radius =
+          diagonal * std::uniform_real_distribution<double>(0.01, max_radius)(random);
+      SCOPED_TRACE(std::string(name) + " trial " + std::to_string(trial));
+      MeshSoup holed = testing::remove_faces(
+          read.soup, [&](const Vec3& c) { return (c - centre).norm() < radius; });
+      visit(holed, trial);
+    }
+  }
+}
+
+//! Fills every hole of \p holed with the defaults and checks the invariants of every fill.
+FillReport fill_all_checked(const MeshSoup& holed) {
+  Mesh mesh = build_mesh(holed).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  FillReport report = fill_holes(mesh, {}, {});
+  const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
+  EXPECT_TRUE(problems.empty()) << problems;
+  return report;
 }
 
 // Holes no one picked: the faces within a random radius (1–8% of the diagonal) of a random
@@ -762,34 +807,13 @@ TEST(HoleCaseQuality, CreaseSplitFlatRegionsMendTheirFolds) {
 TEST(HoleCasesRandom, RandomHolesCutIntoEveryMeshAreFilledCleanly) {
   std::mt19937 random(7);
   std::size_t fills = 0, closed = 0;
-  for (const char* name : {"couplingdown.off", "fandisk.obj", "hand.off", "mech-holes-shark.off",
-                           "rocker-arm.obj", "sphere966.off", "spot.obj"}) {
-    const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/" + name);
-    ASSERT_TRUE(read.ok) << read.error;
-    Box3 box;
-    for (const Vec3& p : read.soup.points) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
-    const double diagonal = box.diagonal().norm();
-    for (int trial = 0; trial < 8; ++trial) {
-      const Vec3 centre = read.soup.points[std::uniform_int_distribution<std::size_t>(
-          0, read.soup.points.size() - 1)(random)];
-      const double radius = diagonal * std::uniform_real_distribution<double>(0.01, 0.08)(random);
-      SCOPED_TRACE(std::string(name) + " trial " + std::to_string(trial));
-      const MeshSoup holed = testing::remove_faces(
-          read.soup, [&](const Vec3& c) { return (c - centre).norm() < radius; });
-      Mesh mesh = build_mesh(holed).mesh;
-      const auto holes = find_holes(mesh).holes;
-      const testing::Snapshot before = testing::take_snapshot(mesh);
-      const FillReport report = fill_holes(mesh, {}, {});
-      const std::string problems =
-          testing::check_fill_invariants(before, mesh, report.holes, holes);
-      EXPECT_TRUE(problems.empty()) << problems;
-      for (const HoleFillReport& r : report.holes) {
-        ++fills;
-        closed += r.filled ? 1 : 0;
-        EXPECT_TRUE(r.filled || !r.reason.empty());  // an open hole says why
-      }
+  for_each_random_cut(random, 8, 0.08, [&](MeshSoup& holed, int) {
+    for (const HoleFillReport& r : fill_all_checked(holed).holes) {
+      ++fills;
+      closed += r.filled ? 1 : 0;
+      EXPECT_TRUE(r.filled || !r.reason.empty());  // an open hole says why
     }
-  }
+  });
   EXPECT_GE(fills, 56u);
   EXPECT_GE(closed, fills * 95 / 100);
 }
@@ -895,37 +919,16 @@ void damage_rims(MeshSoup& soup, RimDamage damage, std::mt19937& random) {
 TEST(HoleCasesRandom, RandomHolesWithDamagedRimsAreFilledOrLeftOpenCleanly) {
   std::mt19937 random(11);
   std::size_t fills = 0, closed = 0, pinched = 0, pinched_closed = 0;
-  for (const char* name : {"couplingdown.off", "fandisk.obj", "hand.off", "mech-holes-shark.off",
-                           "rocker-arm.obj", "sphere966.off", "spot.obj"}) {
-    const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/" + name);
-    ASSERT_TRUE(read.ok) << read.error;
-    Box3 box;
-    for (const Vec3& p : read.soup.points) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
-    const double diagonal = box.diagonal().norm();
-    for (int trial = 0; trial < 20; ++trial) {
-      const auto damage = static_cast<RimDamage>(trial % 5);
-      const Vec3 centre = read.soup.points[std::uniform_int_distribution<std::size_t>(
-          0, read.soup.points.size() - 1)(random)];
-      const double radius = diagonal * std::uniform_real_distribution<double>(0.01, 0.06)(random);
-      SCOPED_TRACE(std::string(name) + " trial " + std::to_string(trial));
-      MeshSoup holed = testing::remove_faces(
-          read.soup, [&](const Vec3& c) { return (c - centre).norm() < radius; });
-      damage_rims(holed, damage, random);
-      Mesh mesh = build_mesh(holed).mesh;
-      const auto holes = find_holes(mesh).holes;
-      const testing::Snapshot before = testing::take_snapshot(mesh);
-      const FillReport report = fill_holes(mesh, {}, {});
-      const std::string problems =
-          testing::check_fill_invariants(before, mesh, report.holes, holes);
-      EXPECT_TRUE(problems.empty()) << problems;
-      for (const HoleFillReport& r : report.holes) {
-        EXPECT_TRUE(r.filled || !r.reason.empty());  // an open hole says why
-        const bool pinch = damage == RimDamage::Pinch;
-        ++(pinch ? pinched : fills);
-        (pinch ? pinched_closed : closed) += r.filled ? 1 : 0;
-      }
+  for_each_random_cut(random, 20, 0.06, [&](MeshSoup& holed, int trial) {
+    const auto damage = static_cast<RimDamage>(trial % 5);
+    damage_rims(holed, damage, random);
+    for (const HoleFillReport& r : fill_all_checked(holed).holes) {
+      EXPECT_TRUE(r.filled || !r.reason.empty());  // an open hole says why
+      const bool pinch = damage == RimDamage::Pinch;
+      ++(pinch ? pinched : fills);
+      (pinch ? pinched_closed : closed) += r.filled ? 1 : 0;
     }
-  }
+  });
   // Jittered, near-duplicate and straight rims are almost always closed (96-99% over 12 seeds);
   // a pinched rim folds over in about half the cases, and its hole then cannot be closed
   // without crossing it (44-63% closed).
