@@ -1162,15 +1162,13 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
         refused = fair ? "the faired patch would intersect the mesh"
                        : "the new faces would intersect existing faces";
       if (crosses && fair) crossed_fair[m] = 1;
-      if (refused.empty() && !step.accept_degenerate) {
-        const double worst = min_angle_deg(mesh, faces);
-        if (worst < kDegenerateAngleDeg) {
-          refused = fmt::format("it leaves a degenerate triangle ({:.3f}°)", worst);
-          if (!degenerate_attempt) {
-            degenerate_attempt = step;
-            degenerate_attempt->method = m;  // resolved (kFirstCrossed)
-            degenerate_attempt->accept_degenerate = true;
-          }
+      const double worst_angle = refused.empty() ? min_angle_deg(mesh, faces) : 0.0;
+      if (refused.empty() && !step.accept_degenerate && worst_angle < kDegenerateAngleDeg) {
+        refused = fmt::format("it leaves a degenerate triangle ({:.3f}°)", worst_angle);
+        if (!degenerate_attempt) {
+          degenerate_attempt = step;
+          degenerate_attempt->method = m;  // resolved (kFirstCrossed)
+          degenerate_attempt->accept_degenerate = true;
         }
       }
       if (!refused.empty()) {
@@ -1206,7 +1204,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       attempt.reason.clear();
       attempt.faces_added = faces.size();
       attempt.vertices_added = vertices.size();
-      attempt.min_angle_deg = min_angle_deg(mesh, faces);
+      attempt.min_angle_deg = worst_angle;
       attempt.new_faces = std::move(faces);
       attempt.new_vertices = std::move(vertices);
       if (!shape_warnings.empty())
