@@ -1080,7 +1080,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       const FillMethod method = methods[m];
       if (!step.accept_degenerate && (dead[m] || (step.fallback && !refused_fair[m]))) continue;
       const bool fair = step.fair;
-      if (balloon_bulge > 0 && whole_hole_fairing(m, fair)) {
+      if (!step.accept_degenerate && balloon_bulge > 0 && whole_hole_fairing(m, fair)) {
         shape_warnings.push_back(
             fmt::format("{}: not faired (a faired patch of this hole rose {:.2f} hole radii)",
                         to_string(method), balloon_bulge));
