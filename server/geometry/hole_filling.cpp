@@ -1214,6 +1214,11 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
                                                : step.collapse_early ? "; faired again with the "
                                                                        "crowded vertices collapsed"
                                                                      : ""));
+      if (step.accept_degenerate)
+        attempt.warnings.push_back(fmt::format(
+            "no attempt closes the hole without a degenerate triangle: kept the first ({}, "
+            "smallest angle {:.3f}°)",
+            to_string(method), worst_angle));
       if (!failures.empty())
         attempt.warnings.push_back("earlier methods failed: " +
                                    fmt::format("{}", fmt::join(failures, "; ")));
