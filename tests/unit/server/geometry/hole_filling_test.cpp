@@ -325,6 +325,34 @@ TEST(FillHole, HoleThatCanOnlyIntersectIsLeftOpenAndNothingChanges) {
   EXPECT_EQ(testing::boundary_halfedges(mesh), before.boundary);
 }
 
+// A frayed border: a vertex one ring outside the rim pushed across it into the hole, so that
+// its faces fold over their neighbours. Every patch meets the folded faces; the hole is left
+// open and the reason says that the surface around it already intersects itself.
+TEST(FillHole, HoleInAFoldedSurfaceSaysTheSurfaceIntersectsItself) {
+  MeshSoup s = remove_faces(testing::grid(10, 10), [](const Vec3& c) {
+    return c[0] > 3 && c[0] < 7 && c[1] > 3 && c[1] < 7;
+  });
+  bool moved = false;
+  for (Vec3& p : s.points)
+    if (p == Vec3(2, 5, 0)) {
+      p = Vec3(4.5, 5, 0);  // past the rim vertex (3, 5)
+      moved = true;
+    }
+  ASSERT_TRUE(moved);
+  Mesh mesh = build_mesh(s).mesh;
+  const Hole* hole = nullptr;
+  const auto holes = find_holes(mesh).holes;
+  for (const auto& h : holes)
+    if (h.loop.size() == 16) hole = &h;
+  ASSERT_NE(hole, nullptr);
+  ASSERT_FALSE(find_self_intersections(mesh, 1).empty());
+  const HoleFillReport r = fill_hole(mesh, *hole, {});
+  EXPECT_FALSE(r.filled);
+  EXPECT_NE(r.reason.find("the surface around the hole already intersects itself"),
+            std::string::npos)
+      << r.reason;
+}
+
 // Geometry a reader accepts but no scanner should produce: coordinates near the double range,
 // denormal offsets, vertices collapsed onto others (zero-length edges, degenerate triangles),
 // far translations that leave a few significant bits. Every hole is then either filled under
