@@ -648,9 +648,6 @@ constexpr double kRescueGoalDeg = 25.0;
 //! or 30 mended no more of the random holes cut into the shared meshes than 4 does.
 constexpr std::size_t kGradedMaxTriangles = 4;
 
-//! A fill with a smaller angle has a (numerically) degenerate triangle: its normal is noise.
-constexpr double kDegenerateAngleDeg = 0.1;
-
 //! Refines the inserted patch, mends its triangles (patch_quality.h) and gives it its shape.
 //! A hole split along crease curves is worked region by region (\p face_pieces; one region
 //! otherwise), so no flip crosses a curve and each region is faired on its own with the others

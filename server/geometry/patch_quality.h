@@ -175,4 +175,8 @@ std::size_t count_faces_below(const Mesh& mesh, const std::vector<FaceHandle>& f
 //! Smallest angle (degrees) of the triangles of \p faces.
 double min_angle_deg(const Mesh& mesh, const std::vector<FaceHandle>& faces);
 
+//! A new triangle with a smaller angle (degrees) is (numerically) degenerate: its normal is
+//! noise. The fill and the sharp-edge tools refuse to leave one where they have a choice.
+constexpr double kDegenerateAngleDeg = 0.1;
+
 }  // namespace touchmend::geometry

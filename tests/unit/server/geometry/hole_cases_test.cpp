@@ -270,6 +270,35 @@ TEST(SharpCasesPicked, FinishThatCrossesTheMeshIsUndoneAndThePushKept) {
   EXPECT_NE(push_down_summary(r, options.finish).find("smoothing undone"), std::string::npos);
 }
 
+// Picks no operator would make on spot's 23-edge hole (found by random picks): chord tangents
+// with k of 3.6 and 4.6 put two curtain vertices at nearly the same place along the curve, and
+// the push-down laid them 0.0003 apart, leaving a 0.03° needle. The result is refused with the
+// reason, and the hole is left as it was.
+TEST(SharpCasesPicked, PushThatLeavesADegenerateTriangleIsRefused) {
+  std::string error;
+  const auto c = testing::load_case("spot_sml", error);
+  ASSERT_TRUE(c) << error;
+  Mesh mesh = build_mesh(c->holed).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const auto hole = find_hole_by_id(holes, 460);
+  ASSERT_TRUE(hole);
+  const auto boundary_before = testing::boundary_halfedges(mesh);
+  const HermitePoints picks{{-0.45208836919784134, 0.040184056557543008, 0.13813112180961543},
+                            {-0.36302299999999998, -0.091906199999999993, 0.052471700000000003},
+                            {-0.14867452449806184, -0.28424753826304194, -0.11985934877262515},
+                            {-0.029460200458264613, -0.35115599960020955, -0.18158597057732245}};
+  SharpenOptions options;
+  options.method = SharpenMethod::PushDown;
+  options.tangents = PickTangents::Chord;
+  options.finish = PushFinish::Fair;
+  options.hermite.k1_scale = 3.5828221459140144;
+  options.hermite.k4_scale = 4.5531460833211987;
+  const SharpenResult r = sharpen_hole(mesh, holes[*hole], picks, options);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.failure.find("degenerate triangle"), std::string::npos) << r.failure;
+  EXPECT_EQ(testing::boundary_halfedges(mesh), boundary_before);
+}
+
 // The test of picked points: on the rocker arm's crease hole, four points picked on the
 // crease retain it closer to the ground truth than the plain fill, in Hausdorff and mean
 // distance, with both variants (measured: plain 12.06 / 2.42‰, split 8.59 / 1.23‰, push-down
