@@ -8,6 +8,7 @@
 #include "server/geometry/face_set.h"
 #include "server/geometry/fairing.h"
 #include "server/geometry/mesh_intersections.h"
+#include "server/geometry/patch_quality.h"
 
 namespace touchmend::geometry {
 namespace {
@@ -318,9 +319,26 @@ PushResult push_down(Mesh& mesh, SharpEdgeState& state, const Vec3& proxy,
     r.at_limit = true;
   }
   r.from = mesh.point(r.vertex);
+  const double s_before = c.s;
   c.s = s;
   r.to = curtain_position(state.guide, c);
   mesh.set_point(r.vertex, r.to);
+  // [ours] Two curtain vertices at nearly the same place along the curve meet there once both
+  // are pushed down, and the triangle between them and a third vertex becomes a needle (random
+  // picks: 0.004° and 0.03° in 2 of about 2,400 push-downs). The step that would make one is not
+  // taken; the vertex stays where it was, a little above the curve.
+  std::vector<FaceHandle> around;
+  for (const FaceHandle f : mesh.vf_range(r.vertex)) around.push_back(f);
+  if (min_angle_deg(mesh, around) < kDegenerateAngleDeg) {
+    mesh.set_point(r.vertex, r.from);
+    c.s = s_before;
+    r.to = r.from;
+    r.at_limit = false;
+    r.why_not =
+        "the step would leave a degenerate triangle at this vertex (another curtain "
+        "vertex is already at the same place on the curve)";
+    return r;
+  }
   state.moved.insert(r.vertex.idx());
   r.moved = true;
   return r;

@@ -16,6 +16,7 @@
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_intersections.h"
 #include "server/geometry/metrics.h"
+#include "server/geometry/patch_quality.h"
 #include "server/geometry/sharpen.h"
 #include "tests/support/mesh_factory.h"
 
@@ -127,6 +128,53 @@ TEST(PushDown, StepsToTheCurveAndStopsOrGoesToTheDepth) {
   EXPECT_FALSE(push_down(g.mesh, g.state, proxy, proxy - Vec3(1, 0, 0), FaceHandle(0), push).moved);
   push.step = 0;
   EXPECT_FALSE(push_down(g.mesh, g.state, proxy, proxy - Vec3(1, 0, 0), touched, push).moved);
+}
+
+// Two curtain vertices joined by an edge at (almost) the same place along the curve: once the
+// first is down, pushing the second onto it would make the triangles at their edge needles.
+// The push stops short of that, says why, and leaves no triangle under the degenerate angle.
+TEST(PushDown, StopsWhereItWouldLeaveADegenerateTriangle) {
+  FilledGrid g = filled_grid(5);
+  g.state.guide =
+      make_guide_surface(straight({2, 2.9, -0.5}, {4, 2.9, -0.5}), {0, 0, 1}, 0.25, 2.0);
+  snap_to_guide(g.mesh, g.state);
+  // A curtain vertex and a curtain neighbour of it.
+  VertexHandle first, second;
+  for (const auto& [index, c] : g.state.on_guide) {
+    for (const VertexHandle w : g.mesh.vv_range(VertexHandle(index)))
+      if (g.state.on_guide.count(w.idx())) {
+        first = VertexHandle(index);
+        second = w;
+        break;
+      }
+    if (first.is_valid()) break;
+  }
+  ASSERT_TRUE(first.is_valid() && second.is_valid());
+  PushOptions push;
+  push.step = 0.05;
+  const auto sweep_at = [&](VertexHandle v, int samples) {
+    FaceHandle touched;
+    for (const FaceHandle f : g.mesh.vf_range(v)) touched = f;
+    const Vec3 proxy = g.mesh.point(v) + Vec3(0, 0, 0.01);
+    PushResult last;
+    for (int i = 0; i < samples; ++i) {
+      last = push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
+      if (!last.moved || last.vertex != v) break;
+    }
+    return last;
+  };
+  push_all(g.mesh, g.state, {});  // every curtain vertex down to the curve ...
+  // ... then the second lifted back up straight above the first.
+  CurtainPoint& c = g.state.on_guide[second.idx()];
+  c.t = g.state.on_guide[first.idx()].t;
+  c.s = 0.5;
+  g.mesh.set_point(second, g.mesh.point(first) + 0.5 * g.state.guide.normal);
+  const PushResult r = sweep_at(second, 100);
+  EXPECT_FALSE(r.moved);
+  EXPECT_NE(r.why_not.find("degenerate triangle"), std::string::npos) << r.why_not;
+  EXPECT_GT(g.state.on_guide[second.idx()].s, 0.0);  // stopped above the curve
+  std::vector<FaceHandle> around(g.mesh.vf_range(second).begin(), g.mesh.vf_range(second).end());
+  EXPECT_GE(min_angle_deg(g.mesh, around), kDegenerateAngleDeg);
 }
 
 TEST(PushDown, MovesOnToTheTouchedTrianglesNeighboursOnceItsVerticesAreDone) {
