@@ -12,8 +12,9 @@
 namespace touchmend::geometry {
 namespace {
 
-//! sin 1°: a triangle with a smaller angle is numerically degenerate for the split rule below.
-const double kDegenerateSineBelow = std::sin(std::numbers::pi / 180.0);
+//! sin 1°: a rim cap with a smaller angle is too flat to split (refine_patch). Coarser than
+//! kDegenerateAngleDeg (patch_quality.h), which marks a triangle no fill may keep.
+const double kFlatCapSineBelow = std::sin(std::numbers::pi / 180.0);
 
 //! Inside the smallest sphere through a, b, c (its centre lies in the triangle's plane).
 bool inside_smallest_sphere(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p) {
@@ -155,16 +156,6 @@ RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
       for (const VertexHandle vh : mesh.fv_range(f)) v[k++] = vh;
       const Vec3 c = (mesh.point(v[0]) + mesh.point(v[1]) + mesh.point(v[2])) / 3.0;
       const double sc = (sigma_of(v[0]) + sigma_of(v[1]) + sigma_of(v[2])) / 3.0;
-      // A degenerate triangle of three consecutive rim vertices (two rim edges: the rim runs
-      // nearly straight there) is not split: its centroid lies on the rim run, and of the three
-      // slivers a split leaves, two lie along rim edges (no flip) around a vertex whose star
-      // has no area (no move). Unsplit, the quality pass can flip its chord away (a random hole
-      // with a perturbed rim in mech-holes-shark: 0.02° -> 7.1°). Other degenerate triangles
-      // are split as before: skipping them too turned rocker-arm_xl's fill into ear clipping.
-      if (min_angle_sine(mesh.point(v[0]), mesh.point(v[1]), mesh.point(v[2])) <
-              kDegenerateSineBelow &&
-          rim_edges(mesh, f, patch) >= 2)
-        continue;
       bool split = true;
       for (const VertexHandle vh : v) {
         const double d = alpha * (c - mesh.point(vh)).norm();
@@ -174,6 +165,16 @@ RefinementReport refine_patch(Mesh& mesh, std::vector<FaceHandle>& patch_faces,
         }
       }
       if (!split) continue;
+      // A degenerate triangle of three consecutive rim vertices (two rim edges: the rim runs
+      // nearly straight there) is not split: its centroid lies on the rim run, and of the three
+      // slivers a split leaves, two lie along rim edges (no flip) around a vertex whose star
+      // has no area (no move). Unsplit, the quality pass can flip its chord away (a random hole
+      // with a perturbed rim in mech-holes-shark: 0.02° -> 7.1°). Other degenerate triangles
+      // are split as before: skipping them too turned rocker-arm_xl's fill into ear clipping.
+      if (min_angle_sine(mesh.point(v[0]), mesh.point(v[1]), mesh.point(v[2])) <
+              kFlatCapSineBelow &&
+          rim_edges(mesh, f, patch) >= 2)
+        continue;
       EdgeHandle old_edges[3];
       k = 0;
       for (const HalfedgeHandle h : mesh.fh_range(f)) old_edges[k++] = mesh.edge_handle(h);
