@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <set>
+#include <vector>
 
 #include "server/geometry/face_set.h"
 #include "server/geometry/fairing.h"
@@ -280,65 +282,88 @@ PushResult push_down(Mesh& mesh, SharpEdgeState& state, const Vec3& proxy,
     const int side = c.side != 0 ? c.side : (c.s >= 0 ? 1 : -1);
     return std::pair{side, -side * std::max(0.0, options.depth)};
   };
-  double best = std::numeric_limits<double>::infinity();
   bool any_on_guide = false;
-  const auto consider = [&](VertexHandle v) {
-    const auto it = state.on_guide.find(v.idx());
-    if (it == state.on_guide.end()) return;
-    any_on_guide = true;
-    const auto [side, limit] = limit_of(it->second);
-    if (side * (it->second.s - limit) <= 0) return;  // already there
-    const double d = OpenMesh::cross(mesh.point(v) - proxy, direction).norm();
-    if (d < best) {
-      best = d;
-      r.vertex = v;
-    }
+  bool any_blocked = false;
+  std::set<int> seen;
+  // The curtain vertices of \p faces still short of their limit, nearest the line first.
+  const auto candidates_of = [&](const std::vector<FaceHandle>& faces) {
+    std::vector<std::pair<double, VertexHandle>> out;
+    for (const FaceHandle f : faces)
+      for (const VertexHandle v : mesh.fv_range(f)) {
+        const auto it = state.on_guide.find(v.idx());
+        if (it == state.on_guide.end()) continue;
+        any_on_guide = true;
+        if (!seen.insert(v.idx()).second) continue;
+        const auto [side, limit] = limit_of(it->second);
+        if (side * (it->second.s - limit) <= 0) continue;  // already there
+        out.emplace_back(OpenMesh::cross(mesh.point(v) - proxy, direction).norm(), v);
+      }
+    std::stable_sort(out.begin(), out.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    return out;
   };
-  for (const VertexHandle v : mesh.fv_range(touched)) consider(v);
-  // [ours] Every curtain vertex of the touched triangle is done: the nearest one still to go
-  // among the patch triangles around it, so a sweep over a finished stretch keeps working
-  // where the curtain is still short of the curve (the thesis' rule alone leaves most samples
-  // of a sweep without effect once the first vertices are down).
-  if (!r.vertex.is_valid())
+  // One step of \p v along the curtain. [ours] Two curtain vertices at nearly the same place
+  // along the curve meet there once both are pushed down, and the triangle between them and a
+  // third vertex becomes a needle (random picks: 0.004° and 0.03° in 2 of about 2,400
+  // push-downs). A step that would make one (or make one there worse) is not taken: the vertex
+  // stays where it was, a little above the curve, and the next candidate is tried.
+  const auto step_vertex = [&](VertexHandle v) {
+    CurtainPoint& c = state.on_guide[v.idx()];
+    const auto [side, limit] = limit_of(c);
+    double s = c.s - side * options.step;
+    bool at_limit = false;
+    if (side * (s - limit) <= 0) {
+      s = limit;
+      at_limit = true;
+    }
+    const Vec3 from = mesh.point(v);
+    std::vector<FaceHandle> around;
+    for (const FaceHandle f : mesh.vf_range(v)) around.push_back(f);
+    const double worst_before = min_angle_deg(mesh, around);
+    const double s_before = c.s;
+    c.s = s;
+    const Vec3 to = curtain_position(state.guide, c);
+    mesh.set_point(v, to);
+    if (const double worst = min_angle_deg(mesh, around);
+        worst < kDegenerateAngleDeg && worst < worst_before) {
+      mesh.set_point(v, from);
+      c.s = s_before;
+      any_blocked = true;
+      return false;
+    }
+    r.vertex = v;
+    r.from = from;
+    r.to = to;
+    r.at_limit = at_limit;
+    return true;
+  };
+  const auto try_in_order = [&](const std::vector<std::pair<double, VertexHandle>>& list) {
+    for (const auto& [distance, v] : list)
+      if (step_vertex(v)) return true;
+    return false;
+  };
+  bool stepped = try_in_order(candidates_of({touched}));
+  // [ours] Every curtain vertex of the touched triangle is done (or blocked): the nearest one
+  // still to go among the patch triangles around it, so a sweep over a finished stretch keeps
+  // working where the curtain is still short of the curve (the thesis' rule alone leaves most
+  // samples of a sweep without effect once the first vertices are down).
+  if (!stepped) {
+    std::vector<FaceHandle> around;
     for (const VertexHandle corner : mesh.fv_range(touched))
       for (const FaceHandle f : mesh.vf_range(corner))
-        if (f != touched && patch.contains(f))
-          for (const VertexHandle v : mesh.fv_range(f)) consider(v);
-  if (!r.vertex.is_valid()) {
-    r.why_not = any_on_guide ? "the touched triangle's vertices (and its neighbours') are "
-                               "already at the curve"
-                             : "the touched triangle has no vertex on the guiding surface";
-    r.at_limit = any_on_guide;
-    return r;
+        if (f != touched && patch.contains(f)) around.push_back(f);
+    stepped = try_in_order(candidates_of(around));
   }
-  CurtainPoint& c = state.on_guide[r.vertex.idx()];
-  const auto [side, limit] = limit_of(c);
-  double s = c.s - side * options.step;
-  if (side * (s - limit) <= 0) {
-    s = limit;
-    r.at_limit = true;
-  }
-  r.from = mesh.point(r.vertex);
-  // [ours] Two curtain vertices at nearly the same place along the curve meet there once both
-  // are pushed down, and the triangle between them and a third vertex becomes a needle (random
-  // picks: 0.004° and 0.03° in 2 of about 2,400 push-downs). A step that would make one (or
-  // make one there worse) is not taken; the vertex stays where it was, a little above the curve.
-  std::vector<FaceHandle> around;
-  for (const FaceHandle f : mesh.vf_range(r.vertex)) around.push_back(f);
-  const double worst_before = min_angle_deg(mesh, around);
-  const double s_before = c.s;
-  c.s = s;
-  r.to = curtain_position(state.guide, c);
-  mesh.set_point(r.vertex, r.to);
-  if (const double worst = min_angle_deg(mesh, around);
-      worst < kDegenerateAngleDeg && worst < worst_before) {
-    mesh.set_point(r.vertex, r.from);
-    c.s = s_before;
-    r.to = r.from;
-    r.at_limit = false;
-    r.why_not =
-        "the step would leave a degenerate triangle at this vertex (another curtain "
-        "vertex is already at the same place on the curve)";
+  if (!stepped) {
+    if (any_blocked)
+      r.why_not =
+          "a step would leave a degenerate triangle at every vertex still to go here (another "
+          "curtain vertex is already at the same place on the curve)";
+    else if (any_on_guide)
+      r.why_not = "the touched triangle's vertices (and its neighbours') are already at the curve";
+    else
+      r.why_not = "the touched triangle has no vertex on the guiding surface";
+    r.at_limit = any_on_guide && !any_blocked;
     return r;
   }
   state.moved.insert(r.vertex.idx());

@@ -177,6 +177,64 @@ TEST(PushDown, StopsWhereItWouldLeaveADegenerateTriangle) {
   EXPECT_GE(min_angle_deg(g.mesh, around), kDegenerateAngleDeg);
 }
 
+TEST(PushDown, PassesOverAVertexWhoseStepWouldLeaveADegenerateTriangle) {
+  FilledGrid g = filled_grid(5);
+  g.state.guide =
+      make_guide_surface(straight({2, 2.9, -0.5}, {4, 2.9, -0.5}), {0, 0, 1}, 0.25, 2.0);
+  snap_to_guide(g.mesh, g.state);
+  // A curtain vertex with two curtain neighbours.
+  VertexHandle first, second, third;
+  for (const auto& [index, c] : g.state.on_guide) {
+    std::vector<VertexHandle> on;
+    for (const VertexHandle w : g.mesh.vv_range(VertexHandle(index)))
+      if (g.state.on_guide.count(w.idx())) on.push_back(w);
+    if (on.size() >= 2) {
+      second = VertexHandle(index);
+      first = on[0];
+      third = on[1];
+      break;
+    }
+  }
+  ASSERT_TRUE(second.is_valid());
+  push_all(g.mesh, g.state, {});
+  // The second lifted straight above the first (its step down would make a needle), the third
+  // lifted above its own place on the curve (free to go down).
+  CurtainPoint& lifted = g.state.on_guide[second.idx()];
+  lifted.t = g.state.on_guide[first.idx()].t;
+  lifted.s = 0.5;
+  g.mesh.set_point(second, g.mesh.point(first) + 0.5 * g.state.guide.normal);
+  g.state.on_guide[third.idx()].s = 0.5;
+  g.mesh.set_point(third, g.mesh.point(third) + 0.5 * g.state.guide.normal);
+  FaceHandle touched;
+  for (const FaceHandle f : g.mesh.vf_range(second))
+    if (std::find(g.state.patch.begin(), g.state.patch.end(), f) != g.state.patch.end())
+      touched = f;
+  ASSERT_TRUE(touched.is_valid());
+  // The sweep passes right over the second, the nearest: it goes down until its next step would
+  // make a needle, and then the third takes the samples.
+  const Vec3 proxy = g.mesh.point(second) + Vec3(0, 0, 0.01);
+  PushOptions push;
+  push.step = 0.05;
+  std::map<int, int> steps;
+  PushResult r;
+  for (int i = 0; i < 60; ++i) {
+    r = push_down(g.mesh, g.state, proxy, proxy - Vec3(0.1, 0, 0), touched, push);
+    if (!r.moved) break;
+    ++steps[r.vertex.idx()];
+  }
+  EXPECT_FALSE(r.moved);
+  EXPECT_NE(r.why_not.find("degenerate triangle"), std::string::npos) << r.why_not;
+  EXPECT_GE(steps[second.idx()], 1);
+  EXPECT_GE(steps[third.idx()], 10);  // 0.5 down in steps of 0.05 (one more for rounding)
+  EXPECT_EQ(steps.size(), 2u);
+  EXPECT_GT(g.state.on_guide[second.idx()].s, 0.0);  // stopped above the curve
+  EXPECT_EQ(g.state.on_guide[third.idx()].s, 0.0);   // at the curve
+  std::vector<FaceHandle> blocked(g.mesh.vf_range(second).begin(), g.mesh.vf_range(second).end());
+  EXPECT_GE(min_angle_deg(g.mesh, blocked), kDegenerateAngleDeg);
+  std::vector<FaceHandle> around(g.mesh.vf_range(third).begin(), g.mesh.vf_range(third).end());
+  EXPECT_GE(min_angle_deg(g.mesh, around), kDegenerateAngleDeg);
+}
+
 TEST(PushDown, MovesOnToTheTouchedTrianglesNeighboursOnceItsVerticesAreDone) {
   FilledGrid g = filled_grid(5);
   // Off the grid's symmetry line, so the curtain cuts many patch edges.
