@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "client/cli/commands.h"
+#include "client/cli/reports.h"
 #include "client/net/repair_client.h"
 #include "server/geometry/mesh_io.h"
 #include "server/geometry/sharpen.h"
@@ -129,6 +130,7 @@ nlohmann::json hole_json(const v1::Hole& h) {
           {"centroid", {h.centroid().x(), h.centroid().y(), h.centroid().z()}},
           {"normal", {h.normal().x(), h.normal().y(), h.normal().z()}},
           {"loop", std::vector<std::uint32_t>(h.loop().begin(), h.loop().end())},
+          {"pinched_at", std::vector<std::uint32_t>(h.pinched_at().begin(), h.pinched_at().end())},
           {"unfillable_reason", h.unfillable_reason()}};
 }
 
@@ -265,7 +267,8 @@ int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostre
         "{:>8} {:>6} {:>12.6g} {:>12.6g} {:>8}  ({:.6g}, {:.6g}, {:.6g}){}\n", h.id(),
         h.boundary_edges(), h.perimeter(), h.area(), h.simple() ? "simple" : "complex",
         h.centroid().x(), h.centroid().y(), h.centroid().z(),
-        h.unfillable_reason().empty() ? "" : "  unfillable: " + h.unfillable_reason());
+        pinch_note(std::vector<std::uint32_t>(h.pinched_at().begin(), h.pinched_at().end())) +
+            (h.unfillable_reason().empty() ? "" : "  unfillable: " + h.unfillable_reason()));
   }
   return kExitOk;
 }

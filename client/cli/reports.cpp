@@ -38,6 +38,22 @@ nlohmann::json to_json(const geometry::ValidationReport& r) {
           {"clean", r.is_clean()}};
 }
 
+namespace {
+
+std::vector<std::uint32_t> pinched_ids(const geometry::Hole& h) {
+  std::vector<std::uint32_t> ids;
+  for (const auto v : h.pinched_at) ids.push_back(static_cast<std::uint32_t>(v.idx()));
+  return ids;
+}
+
+}  // namespace
+
+std::string pinch_note(const std::vector<std::uint32_t>& pinched_at) {
+  if (pinched_at.empty()) return {};
+  return fmt::format("  pinched at {} {}", pinched_at.size() == 1 ? "vertex" : "vertices",
+                     fmt::join(pinched_at, ", "));
+}
+
 nlohmann::json to_json(const geometry::Hole& h) {
   nlohmann::json loop = nlohmann::json::array();
   for (const auto v : h.loop) loop.push_back(v.idx());
@@ -52,6 +68,11 @@ nlohmann::json to_json(const geometry::Hole& h) {
                       {"reference_plane", h.reference_source},
                       {"loop", loop}};
   if (!h.unfillable_reason.empty()) j["unfillable"] = h.unfillable_reason;
+  if (!h.pinched_at.empty()) {
+    nlohmann::json pinched = nlohmann::json::array();
+    for (const auto v : h.pinched_at) pinched.push_back(v.idx());
+    j["pinched_at"] = pinched;
+  }
   return j;
 }
 
@@ -126,7 +147,8 @@ std::string holes_text(const std::vector<geometry::Hole>& holes) {
         h.loop.size(), h.perimeter, h.area, h.is_simple ? "simple" : "complex",
         fmt::format("({:.6g}, {:.6g}, {:.6g})", h.centroid[0], h.centroid[1], h.centroid[2]),
         h.normal[0], h.normal[1], h.normal[2],
-        h.unfillable_reason.empty() ? "" : "  unfillable: " + h.unfillable_reason);
+        pinch_note(pinched_ids(h)) +
+            (h.unfillable_reason.empty() ? "" : "  unfillable: " + h.unfillable_reason));
   }
   return out;
 }

@@ -3,6 +3,7 @@
 //! \file reports.h
 //! \brief Text and JSON renderings of validation reports, holes and fill results.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -22,5 +23,8 @@ nlohmann::json to_json(const geometry::HoleFillReport& report);
 std::string validation_text(const geometry::ValidationReport& report);
 std::string holes_text(const std::vector<geometry::Hole>& holes);
 std::string fill_text(const geometry::HoleFillReport& report);
+
+//! "  pinched at vertex 12" (or "vertices 12, 40"), for a hole listing; empty for none.
+std::string pinch_note(const std::vector<std::uint32_t>& pinched_at);
 
 }  // namespace touchmend::cli

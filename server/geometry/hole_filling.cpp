@@ -898,9 +898,10 @@ Box3 hole_region(const Hole& hole, const LoopData& loop) {
   return region;
 }
 
-//! fill_hole with the search reach kept across holes (the new faces are filed in it).
-HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
-                                SearchReach& reach) {
+//! fill_hole of a hole whose loop passes each vertex once (fill_hole_cached closes pinches
+//! first), with the search reach kept across holes (the new faces are filed in it).
+HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& options,
+                              SearchReach& reach) {
   const auto start = Clock::now();
   HoleFillReport report;
   report.hole_id = hole.id;
@@ -1247,6 +1248,159 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
           pairs >= kCountUpTo ? "at least " : "", pairs);
   }
   return finish();
+}
+
+std::vector<int> vertex_ids(const std::vector<VertexHandle>& vertices) {
+  std::vector<int> ids;
+  for (const VertexHandle v : vertices) ids.push_back(v.idx());
+  return ids;
+}
+
+//! The triangles that closed a pinched hole's pinches, and the hole left (a disk).
+struct PinchClosure {
+  std::vector<FaceHandle> faces;
+  Hole hole;
+  double min_angle_deg = 180;
+  std::string failure;  //!< empty on success
+};
+
+//! Closes each pinch of \p hole (a vertex its loop passes more than once) with one triangle.
+//!
+//! [ours] A loop through vertex v twice, ... p -> v -> a ... b -> v -> q ..., bounds a region
+//! that is a disk with two boundary points glued at v: the gap left between an island of faces
+//! and the surface it touches at v (a scan's debris, two cuts that met), a pinched annulus. Its
+//! two corners at v are the two gaps between v's fans. One triangle across either corner,
+//! (p, v, a) with the new edge p-a, joins the two fans at v into one: the loop then passes v
+//! once and is one vertex shorter, a disk the filler closes like any other (the same idea as
+//! seed 000 §4.3's Algorithm IX, which closes a gap's ends with one triangle each and fills
+//! the hole left). Of the corners at v the triangle with the largest smallest angle is taken
+//! that creates no edge the mesh already has, is not degenerate, links into the mesh and
+//! meets no other face. The pinch is then no longer in the loop, whatever the fill does: on
+//! failure the caller removes the triangles, so the mesh is as it was.
+PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reach) {
+  PinchClosure out;
+  std::vector<VertexHandle> loop = hole.loop;
+  std::vector<HalfedgeHandle> halfedges = hole.halfedges;
+  for (const VertexHandle v : hole.pinched_at) {
+    for (;;) {
+      std::vector<std::size_t> corners;
+      for (std::size_t i = 0; i < loop.size(); ++i)
+        if (loop[i] == v) corners.push_back(i);
+      if (corners.size() < 2) break;
+      struct Candidate {
+        double sine;
+        std::size_t corner;
+      };
+      std::vector<Candidate> candidates;
+      const std::size_t n = loop.size();
+      for (const std::size_t i : corners) {
+        const VertexHandle p = loop[(i + n - 1) % n], a = loop[(i + 1) % n];
+        if (p == a || p == v || a == v) continue;
+        if (mesh.find_halfedge(p, a).is_valid() || mesh.find_halfedge(a, p).is_valid()) continue;
+        const double sine = min_angle_sine(mesh.point(p), mesh.point(v), mesh.point(a));
+        if (!(sine > std::sin(kDegenerateAngleDeg * std::numbers::pi / 180))) continue;
+        candidates.push_back({sine, i});
+      }
+      std::stable_sort(candidates.begin(), candidates.end(),
+                       [](const Candidate& x, const Candidate& y) { return x.sine > y.sine; });
+      bool closed = false;
+      for (const Candidate& c : candidates) {
+        const std::size_t i = c.corner;
+        const VertexHandle p = loop[(i + n - 1) % n], a = loop[(i + 1) % n];
+        // The face across the corner takes the two boundary halfedges p -> v -> a; its third
+        // edge's other half, p -> a, is the loop's new boundary halfedge.
+        const FaceHandle f = mesh.add_face(p, v, a);
+        if (!f.is_valid()) continue;
+        const FaceHandle one[] = {f};
+        if (!find_intersections_with_rest(mesh, one, 1, reach).empty()) {
+          mesh.delete_face(f, false);
+          continue;
+        }
+        const HalfedgeHandle joined = mesh.find_halfedge(p, a);
+        if (!joined.is_valid() || !mesh.is_boundary(joined)) {
+          mesh.delete_face(f, false);
+          continue;
+        }
+        out.faces.push_back(f);
+        out.min_angle_deg =
+            std::min(out.min_angle_deg, std::asin(std::min(c.sine, 1.0)) * 180 / std::numbers::pi);
+        // The loop without this corner: p -> a replaces p -> v -> a.
+        const std::size_t previous = (i + n - 1) % n;
+        halfedges[previous] = joined;
+        loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(i));
+        halfedges.erase(halfedges.begin() + static_cast<std::ptrdiff_t>(i));
+        closed = true;
+        break;
+      }
+      if (!closed) {
+        out.failure = fmt::format(
+            "no triangle closes its corners at vertex {} (each would repeat an edge, be "
+            "degenerate, not link into the mesh or meet another face)",
+            v.idx());
+        return out;
+      }
+    }
+  }
+  // The loop as the mesh now links it: from the joined halfedge around, it must be the loop
+  // above (a walk that takes another way at a vertex where more fans meet is not filled).
+  Hole& disk = out.hole;
+  const HalfedgeHandle start = halfedges.front();
+  HalfedgeHandle h = start;
+  do {
+    disk.loop.push_back(mesh.from_vertex_handle(h));
+    disk.halfedges.push_back(h);
+    h = next_hole_halfedge(mesh, h);
+  } while (h.is_valid() && h != start && disk.loop.size() <= loop.size());
+  if (h != start || disk.halfedges != halfedges) {
+    out.failure = "the boundary left after closing the pinch is not one loop";
+    return out;
+  }
+  disk.id = hole.id;
+  compute_hole_properties(mesh, disk, /*compute_projectability=*/true);
+  return out;
+}
+
+//! fill_hole with the search reach kept across holes (the new faces are filed in it).
+HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
+                                SearchReach& reach) {
+  if (!hole.unfillable_reason.empty() || hole.pinched_at.empty() || hole.loop.size() < 3)
+    return fill_disk_hole(mesh, hole, options, reach);
+  const auto start = Clock::now();
+  if (!(reach.longest_edge > 0)) reach = make_search_reach(mesh);
+  const std::string pinched =
+      hole.pinched_at.size() == 1
+          ? fmt::format("the boundary passes through vertex {} twice (pinched hole)",
+                        hole.pinched_at.front().idx())
+          : fmt::format("the boundary passes through vertices {} more than once (pinched hole)",
+                        fmt::join(vertex_ids(hole.pinched_at), ", "));
+  PinchClosure closure = close_pinches(mesh, hole, reach);
+  HoleFillReport report;
+  if (!closure.failure.empty()) {
+    remove_patch(mesh, closure.faces, {});
+    report.hole_id = hole.id;
+    report.boundary_vertices = hole.loop.size();
+    report.reason = pinched + ": " + closure.failure;
+    report.seconds = seconds_since(start);
+    return report;
+  }
+  reach.add(mesh, closure.faces);
+  report = fill_disk_hole(mesh, closure.hole, options, reach);
+  report.hole_id = hole.id;
+  report.boundary_vertices = hole.loop.size();
+  const std::string closing =
+      fmt::format("closed with {} triangle{} across the pinch first", closure.faces.size(),
+                  closure.faces.size() == 1 ? "" : "s");
+  if (report.filled) {
+    report.new_faces.insert(report.new_faces.begin(), closure.faces.begin(), closure.faces.end());
+    report.faces_added += closure.faces.size();
+    report.min_angle_deg = std::min(report.min_angle_deg, closure.min_angle_deg);
+    report.warnings.insert(report.warnings.begin(), pinched + ": " + closing);
+  } else {
+    remove_patch(mesh, closure.faces, {});
+    report.reason = pinched + ", " + closing + ", then: " + report.reason;
+  }
+  report.seconds = seconds_since(start);
+  return report;
 }
 
 }  // namespace

@@ -206,14 +206,11 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
     if (hole.loop.size() < 3) hole.unfillable_reason = "boundary loop with fewer than 3 edges";
     {
       // A loop through the same vertex twice (the outside of a bowtie, a hole pinched at a
-      // vertex) is not a disk: filling it would make a non-manifold vertex.
-      std::vector<int> ids;
-      for (const VertexHandle v : hole.loop) ids.push_back(v.idx());
-      std::sort(ids.begin(), ids.end());
-      const auto dup = std::adjacent_find(ids.begin(), ids.end());
-      if (dup != ids.end())
-        hole.unfillable_reason = "the boundary passes through vertex " + std::to_string(*dup) +
-                                 " twice (pinched hole): not a disk";
+      // vertex) is not a disk: the fill closes the pinch first (fill_hole).
+      std::set<int> seen, listed;
+      for (const VertexHandle v : hole.loop)
+        if (!seen.insert(v.idx()).second && listed.insert(v.idx()).second)
+          hole.pinched_at.push_back(v);
     }
     result.holes.push_back(std::move(hole));
   }

@@ -38,6 +38,11 @@ struct Hole {
   bool projectability_computed = false;
   //! Empty when the hole can be filled; otherwise why not (e.g. a non-manifold vertex).
   std::string unfillable_reason;
+  //! Vertices the loop passes more than once (a hole pinched at a vertex: the region left
+  //! between an island of faces and the rest of the surface that it touches at one vertex, the
+  //! outside of a bowtie), each listed once, in loop order. The fill closes each pinch with one
+  //! triangle first (see fill_hole).
+  std::vector<VertexHandle> pinched_at;
 
   std::size_t size() const { return loop.size(); }
 };

@@ -295,6 +295,8 @@ v1::Hole SessionGeometry::hole_to_proto(const geometry::Hole& hole) const {
   set(out.mutable_centroid(), hole.centroid);
   out.set_simple(hole.is_simple);
   out.set_unfillable_reason(hole.unfillable_reason);
+  for (const auto v : hole.pinched_at)
+    out.add_pinched_at(doc_vertex(static_cast<std::size_t>(v.idx())));
   return out;
 }
 

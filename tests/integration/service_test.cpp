@@ -1,5 +1,6 @@
 // Integration tests: real touchmend-server processes on loopback, real clients.
 
+#include <algorithm>
 #include <atomic>
 #include <boost/asio.hpp>
 #include <future>
@@ -190,6 +191,51 @@ TEST(Service, TwoClientsOnOneSessionSeeEachOthersEditsAndUndoRedo) {
   auto parsed = geometry::parse_mesh(exported, geometry::MeshFormat::Ply);
   ASSERT_TRUE(parsed.ok) << parsed.error;
   EXPECT_EQ(parsed.soup.triangles.size(), expected.alive_faces());
+}
+
+// A pinched hole through the server: listed with its pinch (in document vertex ids), filled with
+// the triangle across the pinch among the new faces, the same mesh at a subscriber, and undone
+// as one edit.
+TEST(Service, PinchedHoleIsListedFilledAndUndoneThroughTheServer) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient client(channel);
+  const std::string session = make_session(client, "pinched",
+                                           testing::to_off(testing::cut_leaving_an_island(
+                                               testing::uv_sphere(1, 48, 24), {0, 0.6, 0.8}, 0.45)),
+                                           "pinched.off");
+  net::SessionReplica replica(client, session);
+  ASSERT_TRUE(replica.start().is_ok());
+  const std::size_t faces_before = replica.document().alive_faces();
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  ASSERT_EQ(holes.holes_size(), 1);
+  ASSERT_EQ(holes.holes(0).pinched_at_size(), 1);
+  const std::uint32_t pinch = holes.holes(0).pinched_at(0);
+  EXPECT_EQ(std::count(holes.holes(0).loop().begin(), holes.holes(0).loop().end(), pinch), 2);
+  EXPECT_TRUE(holes.holes(0).unfillable_reason().empty());
+  v1::EditResponse filled;
+  const Status fill_status = client.fill_holes(fill_request(session, holes.holes(0).id()), filled);
+  ASSERT_TRUE(fill_status.is_ok()) << fill_status.to_string();
+  ASSERT_EQ(filled.report().holes_size(), 1);
+  EXPECT_TRUE(filled.report().holes(0).filled()) << filled.report().holes(0).reason();
+  ASSERT_TRUE(replica.wait_for_version(filled.version(), 10s).is_ok());
+  rpc::MeshDocument server_doc;
+  ASSERT_TRUE(client.download_document(session, server_doc).is_ok());
+  EXPECT_EQ(replica.document(), server_doc);
+  EXPECT_EQ(server_doc.alive_faces(), faces_before + filled.report().holes(0).faces_added());
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  EXPECT_EQ(holes.holes_size(), 0);
+  v1::EditResponse undone;
+  ASSERT_TRUE(client.undo(session, undone).is_ok());
+  ASSERT_TRUE(replica.wait_for_version(undone.version(), 10s).is_ok());
+  EXPECT_EQ(replica.document().alive_faces(), faces_before);
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  ASSERT_EQ(holes.holes_size(), 1);
+  EXPECT_EQ(holes.holes(0).pinched_at_size(), 1);
 }
 
 TEST(Service, ALongFillDoesNotBlockOtherSessions) {

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <unordered_map>
 
 #include "server/geometry/mesh_build.h"
@@ -147,6 +148,32 @@ MeshSoup remove_faces(const MeshSoup& soup, const std::function<bool(const Vec3&
     out.triangles.push_back(nt);
   }
   return out;
+}
+
+MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double radius) {
+  const auto centroid = [&](const geometry::Triangle& t) {
+    return (soup.points[t[0]] + soup.points[t[1]] + soup.points[t[2]]) / 3.0;
+  };
+  const auto cut = [&](const geometry::Triangle& t) {
+    return (centroid(t) - centre).norm() < radius;
+  };
+  std::vector<int> kept_faces_at(soup.points.size(), 0);
+  for (const auto& t : soup.triangles)
+    if (!cut(t))
+      for (const auto c : t) ++kept_faces_at[c];
+  std::optional<Vec3> island;
+  for (const auto& t : soup.triangles) {
+    if (!cut(t)) continue;
+    int on_rim = 0;
+    for (const auto c : t) on_rim += kept_faces_at[c] > 0 ? 1 : 0;
+    if (on_rim == 1) {
+      island = centroid(t);
+      break;
+    }
+  }
+  return remove_faces(soup, [&](const Vec3& c) {
+    return (c - centre).norm() < radius && !(island && c == *island);
+  });
 }
 
 MeshSoup cube_with_hole(int n, const Vec3& centre, double radius) {

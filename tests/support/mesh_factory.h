@@ -42,6 +42,12 @@ MeshSoup annulus(int inner, double r_in, int rings, double ring_width);
 MeshSoup remove_faces(const MeshSoup& soup, const std::function<bool(const Vec3& centroid)>& remove,
                       std::vector<std::array<Vec3, 3>>* removed = nullptr);
 
+//! \p soup with the faces whose centroid lies within \p radius of \p centre removed, but for
+//! one that touches the faces kept at exactly one vertex: an island attached at a vertex inside
+//! the hole, whose loop then passes that vertex twice (a pinched hole). The whole disk is removed
+//! when no face qualifies.
+MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double radius);
+
 //! The cube [0, n]³ with the faces whose centroid lies within \p radius of \p centre removed
 //! (a hole across an edge or a corner when the centre is on one).
 MeshSoup cube_with_hole(int n, const Vec3& centre, double radius);

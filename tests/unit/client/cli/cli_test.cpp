@@ -368,6 +368,28 @@ TEST_F(Cli, FillAllWritesAClosedMeshAtomically) {
         << "temporary file left behind";
 }
 
+// A hole whose loop passes a vertex twice (an island inside it touches the rim there) is
+// listed with its pinch and filled: closed across the pinch first, then as a disk.
+TEST_F(Cli, PinchedHoleIsListedWithItsPinchAndFilled) {
+  write("pinched.off", testing::to_off(testing::cut_leaving_an_island(testing::uv_sphere(1, 48, 24),
+                                                                      {0, 0.6, 0.8}, 0.45)));
+  const CliRun text = run("holes " + path("pinched.off"));
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("pinched at vertex"), std::string::npos) << text.out;
+  EXPECT_EQ(text.out.find("unfillable"), std::string::npos) << text.out;
+  const CliRun json = run("holes " + path("pinched.off") + " --json");
+  ASSERT_EQ(json.code, 0) << json.err;
+  const auto h = nlohmann::json::parse(json.out);
+  ASSERT_EQ(h["holes"].size(), 1u);
+  EXPECT_EQ(h["holes"][0]["pinched_at"].size(), 1u);
+  const CliRun fill = run("fill " + path("pinched.off") + " -o " + path("out.off") + " --all");
+  ASSERT_EQ(fill.code, 0) << fill.err;
+  EXPECT_NE(fill.out.find("pinched"), std::string::npos) << fill.out;
+  const auto [clean, boundary_edges] = closedness(path("out.off"));
+  EXPECT_TRUE(clean);
+  EXPECT_EQ(boundary_edges, 0u);
+}
+
 TEST_F(Cli, FillOneHoleByIdOrByPointLeavesTheOthers) {
   const CliRun holes = run("holes " + spot_ + " --json");
   const auto h = nlohmann::json::parse(holes.out)["holes"];

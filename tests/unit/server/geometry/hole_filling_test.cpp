@@ -243,6 +243,60 @@ TEST(FillHole, TwoHolesSharingAVertexAreFilledOneAtATime) {
   EXPECT_TRUE(find_face_intersections(mesh, second.new_faces).empty());
 }
 
+FillRun fill_pinched(const MeshSoup& soup) {
+  FillRun run = fill_and_check(soup, {}, [](const Hole& h) { return !h.pinched_at.empty(); });
+  EXPECT_EQ(run.reports.size(), 1u);
+  return run;
+}
+
+// A hole whose loop passes a vertex twice bounds the gap between an island and the surface it
+// touches there. One triangle across a corner of the pinch makes it a disk, which is filled;
+// the result is closed and manifold at the pinch.
+TEST(FillHole, HolePinchedByAnIslandIsClosedAcrossThePinch) {
+  const FillRun run =
+      fill_pinched(testing::cut_leaving_an_island(testing::grid(12, 12), {6, 6, 0}, 3.2));
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings[0].find("pinched"), std::string::npos) << r.warnings[0];
+  EXPECT_EQ(find_holes(run.mesh).holes.size(), 1u);  // only the grid's border is left
+  EXPECT_EQ(validate_mesh(run.mesh).non_manifold_vertices, 0u);
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces).empty());
+  for (const VertexHandle v : run.mesh.vertices()) EXPECT_EQ(run.mesh.point(v)[2], 0.0);
+  EXPECT_GE(min_new_angle(run), 15.0);
+}
+
+TEST(FillHole, PinchedHoleOnASphereIsFairedBackOntoIt) {
+  const FillRun run = fill_pinched(
+      testing::cut_leaving_an_island(testing::uv_sphere(1, 48, 24), {0, 0.6, 0.8}, 0.45));
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Fair) << r.shape_reason;
+  EXPECT_TRUE(find_holes(run.mesh).holes.empty());
+  EXPECT_EQ(validate_mesh(run.mesh).non_manifold_vertices, 0u);
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces).empty());
+  for (const VertexHandle v : r.new_vertices) EXPECT_NEAR(run.mesh.point(v).norm(), 1.0, 0.02);
+}
+
+// The outside of a flat bowtie: one triangle closes the pinch, but every patch of the four-edge
+// loop left would lie on the bowtie's own triangles. The hole stays open, says why, and the
+// triangle across the pinch is taken out again: the mesh is as it was.
+TEST(FillHole, PinchThatNoTriangleCanCloseLeavesTheMeshAsItWas) {
+  MeshSoup s;
+  s.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {-1, 0, 0}, {-1, -1, 0}};
+  s.triangles = {{0, 1, 2}, {0, 3, 4}};
+  FillRun run = fill_and_check(s, {}, [](const Hole&) { return true; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  EXPECT_FALSE(r.filled);
+  EXPECT_NE(r.reason.find("pinched"), std::string::npos) << r.reason;
+  run.mesh.garbage_collection();
+  EXPECT_EQ(run.mesh.n_faces(), 2u);
+  EXPECT_EQ(run.mesh.n_edges(), 6u);
+}
+
 TEST(FillHole, ThreeEdgeHoleGetsOneTriangle) {
   MeshSoup s = testing::cube(2);
   s.triangles.erase(s.triangles.begin() + 5);

@@ -90,14 +90,15 @@ TEST(FindHoles, OpenCylinderEndsUseTheNewellNormal) {
   }
 }
 
-TEST(FindHoles, PinchedLoopIsReportedUnfillable) {
+TEST(FindHoles, PinchedLoopListsItsPinch) {
   MeshSoup s;
   s.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {-1, 0, 0}, {-1, -1, 0}};
   s.triangles = {{0, 1, 2}, {0, 3, 4}};  // a bowtie: its outside passes vertex 0 twice
   const auto holes = find_holes(build_mesh(s).mesh).holes;
   ASSERT_EQ(holes.size(), 1u);
   EXPECT_EQ(holes[0].loop.size(), 6u);
-  EXPECT_NE(holes[0].unfillable_reason.find("twice"), std::string::npos);
+  EXPECT_EQ(holes[0].pinched_at, std::vector<VertexHandle>{VertexHandle(0)});
+  EXPECT_TRUE(holes[0].unfillable_reason.empty()) << holes[0].unfillable_reason;
 }
 
 TEST(FindHoles, ClosedMeshHasNoHoles) {
