@@ -1384,7 +1384,16 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     return report;
   }
   reach.add(mesh, closure.faces);
-  report = fill_disk_hole(mesh, closure.hole, options, reach);
+  // Creases planned on the pinched loop (sharpen's picks) name their rim vertices by position in
+  // that loop: renumbered for the disk's.
+  FillOptions disk_options = options;
+  if (disk_options.explicit_creases)
+    for (CreaseCrossing& c : disk_options.explicit_creases->crossings) {
+      const auto at = std::find(closure.hole.loop.begin(), closure.hole.loop.end(), c.vertex);
+      if (at != closure.hole.loop.end())
+        c.loop_index = static_cast<std::size_t>(at - closure.hole.loop.begin());
+    }
+  report = fill_disk_hole(mesh, closure.hole, disk_options, reach);
   report.hole_id = hole.id;
   report.boundary_vertices = hole.loop.size();
   const std::string closing =

@@ -325,6 +325,26 @@ TEST(Sharpen, BothVariantsRestoreACubeEdgeFromPickedPoints) {
   }
 }
 
+// The same edge through a pinched hole (an island of the cut left touching the rim at one
+// vertex): the picks name rim vertices of the pinched loop, and the split follows them in the
+// disk left once the pinch is closed.
+TEST(Sharpen, PickedEdgeThroughAPinchedHoleIsRestored) {
+  const std::array<std::array<Vec3, 2>, 1> edge{{{Vec3(8, 2.2, 8), Vec3(8, 5.8, 8)}}};
+  Mesh mesh = build_mesh(testing::cut_leaving_an_island(testing::cube(8), Vec3(8, 4, 8), 2.2)).mesh;
+  const auto holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  ASSERT_EQ(holes[0].pinched_at.size(), 1u);
+  SharpenOptions options;
+  options.fill.shape = PatchShape::Fair;
+  const SharpenResult r =
+      sharpen_hole(mesh, holes[0], {{8, 0.5, 8}, {8, 2, 8}, {8, 6, 8}, {8, 7.5, 8}}, options);
+  ASSERT_TRUE(r.ok) << r.failure;
+  EXPECT_LT(segment_distance(edge, face_triangles(mesh, r.patch), 0.01).max, 0.05);
+  EXPECT_TRUE(validate_mesh(mesh).is_clean());
+  EXPECT_TRUE(find_holes(mesh).holes.empty());
+  EXPECT_TRUE(find_face_intersections(mesh, r.patch).empty());
+}
+
 // After the push the rest of the patch still has the rounded fill's shape. Fairing each side
 // of the curve on its own (the default finish) lays it back onto the cube's two faces; the
 // thesis' smoothing (Algorithm VII) and no finish leave it farther off them.
