@@ -797,8 +797,11 @@ TEST(HoleCaseQuality, CreaseSplitFlatRegionsMendTheirFolds) {
 //! For each shared mesh, \p trials cuts: the faces within a random radius (1% to \p max_radius
 //! of the diagonal) of a random vertex removed; \p visit(holed soup, trial) under a trace that
 //! names the mesh and trial.
+//! \p max_balls > 1: each cut removes the faces within one to \p max_balls random balls (the
+//! holes they leave merge, pinch and leave islands).
 template <typename Visit>
-void for_each_random_cut(std::mt19937& random, int trials, double max_radius, Visit&& visit) {
+void for_each_random_cut(std::mt19937& random, int trials, double max_radius, Visit&& visit,
+                         int max_balls = 1) {
   for (const char* name : {"couplingdown.off", "fandisk.obj", "hand.off", "mech-holes-shark.off",
                            "rocker-arm.obj", "sphere966.off", "spot.obj"}) {
     const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/" + name);
@@ -807,13 +810,21 @@ void for_each_random_cut(std::mt19937& random, int trials, double max_radius, Vi
     for (const Vec3& p : read.soup.points) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
     const double diagonal = box.diagonal().norm();
     for (int trial = 0; trial < trials; ++trial) {
-      const Vec3 centre = read.soup.points[std::uniform_int_distribution<std::size_t>(
-          0, read.soup.points.size() - 1)(random)];
-      const double radius =
-          diagonal * std::uniform_real_distribution<double>(0.01, max_radius)(random);
+      const int balls =
+          max_balls > 1 ? std::uniform_int_distribution<int>(1, max_balls)(random) : 1;
+      std::vector<std::pair<Vec3, double>> cut;
+      for (int b = 0; b < balls; ++b) {
+        const Vec3 centre = read.soup.points[std::uniform_int_distribution<std::size_t>(
+            0, read.soup.points.size() - 1)(random)];
+        const double radius =
+            diagonal * std::uniform_real_distribution<double>(0.01, max_radius)(random);
+        cut.emplace_back(centre, radius);
+      }
       SCOPED_TRACE(std::string(name) + " trial " + std::to_string(trial));
-      MeshSoup holed = testing::remove_faces(
-          read.soup, [&](const Vec3& c) { return (c - centre).norm() < radius; });
+      MeshSoup holed = testing::remove_faces(read.soup, [&](const Vec3& c) {
+        return std::any_of(cut.begin(), cut.end(),
+                           [&](const auto& ball) { return (c - ball.first).norm() < ball.second; });
+      });
       visit(holed, trial);
     }
   }
@@ -847,6 +858,32 @@ TEST(HoleCasesRandom, RandomHolesCutIntoEveryMeshAreFilledCleanly) {
   });
   EXPECT_GE(fills, 56u);
   EXPECT_GE(closed, fills * 95 / 100);
+}
+
+// Cuts of one to five overlapping balls: the holes merge, and where an island of faces is left
+// touching the rim at one vertex the loop passes that vertex twice (a pinched hole). Every fill
+// keeps the invariants; pinched holes are closed across the pinch and filled like the rest.
+TEST(HoleCasesRandom, HolesCutByOverlappingBallsIncludingPinchedOnesAreFilledCleanly) {
+  std::mt19937 random(4);
+  std::size_t fills = 0, closed = 0, pinched = 0, pinched_closed = 0;
+  for_each_random_cut(
+      random, 8, 0.15,
+      [&](MeshSoup& holed, int) {
+        for (const HoleFillReport& r : fill_all_checked(holed).holes) {
+          const bool pinch = (r.filled && !r.warnings.empty() &&
+                              r.warnings[0].find("pinched") != std::string::npos) ||
+                             r.reason.find("pinched") != std::string::npos;
+          ++(pinch ? pinched : fills);
+          (pinch ? pinched_closed : closed) += r.filled ? 1 : 0;
+          EXPECT_TRUE(r.filled || !r.reason.empty());  // an open hole says why
+        }
+      },
+      5);
+  EXPECT_GE(fills, 150u);
+  EXPECT_GE(closed, fills * 95 / 100);
+  // Measured (seed 4): 207 of 208 holes closed, 9 of 9 pinched ones.
+  EXPECT_GE(pinched, 6u);
+  EXPECT_GE(pinched_closed, pinched * 3 / 4);
 }
 
 // A couplingdown cut whose centre vertex stays on the rim, moved to a tenth of its distance
