@@ -297,6 +297,28 @@ TEST(FillHole, PinchThatNoTriangleCanCloseLeavesTheMeshAsItWas) {
   EXPECT_EQ(run.mesh.n_edges(), 6u);
 }
 
+// A cut that leaves a lone triangle: its outline is a three-edge loop, whose only patch would be
+// the triangle's back. It stays open, and the reason says the loop borders a fragment.
+TEST(FillHole, OutlineOfALoneTriangleSaysItBordersAFragment) {
+  MeshSoup s = testing::grid_with_round_hole();
+  const auto base = static_cast<std::uint32_t>(s.points.size());
+  s.points.push_back({7.6, 7.7, 0.2});
+  s.points.push_back({8.4, 7.8, 0.2});
+  s.points.push_back({8.0, 8.4, 0.2});
+  s.triangles.push_back({base, base + 1, base + 2});
+  const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() < 60; });
+  std::size_t fragments = 0, filled = 0;
+  for (const HoleFillReport& r : run.reports) {
+    if (r.filled) ++filled;
+    if (r.boundary_vertices != 3) continue;
+    EXPECT_FALSE(r.filled);
+    EXPECT_NE(r.reason.find("separate piece of 1 face (a fragment"), std::string::npos) << r.reason;
+    ++fragments;
+  }
+  EXPECT_EQ(fragments, 1u);
+  EXPECT_EQ(filled, 1u);  // the round hole around it is filled
+}
+
 TEST(FillHole, ThreeEdgeHoleGetsOneTriangle) {
   MeshSoup s = testing::cube(2);
   s.triangles.erase(s.triangles.begin() + 5);
