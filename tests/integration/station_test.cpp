@@ -404,6 +404,9 @@ TEST(Station, ReplayedStitchDragCreatesTheTriangle) {
   const app::StationView after = station.view();
   // The edge (4, 0)-(4, 1) is vertices 4 and 9, in the hole loop's order; (4.5, 0) is 25.
   EXPECT_NE(after.status.find("stitch: triangle 9-4-25"), std::string::npos) << after.status;
+  // The status comes with the stitch's answer, the edit itself with the session's stream: on a
+  // loaded machine the delta may arrive a little later.
+  EXPECT_TRUE(wait_until([&] { return station.version() >= start_version + 1; }));
   EXPECT_EQ(station.version(), start_version + 1) << after.status;
   net::RepairClient check(server.connect());
   rpc::MeshDocument server_document;
@@ -453,6 +456,7 @@ TEST(Station, ReplayedSharpEdgePicksPushesAndSmoothsACubeEdge) {
   net::RepairClient check(s.server.connect());
   rpc::MeshDocument doc;
   ASSERT_TRUE(check.download_document(station.session_id(), doc).is_ok());
+  EXPECT_TRUE(wait_until([&] { return station.version() >= doc.version; }));  // the last delta
   EXPECT_TRUE(station.document() == doc);
   // The pushes brought vertices of the rounded patch up to the edge; before, the faired
   // patch's vertices under the edge were far below it. (The picks are proxy positions, a
