@@ -396,6 +396,7 @@ TEST(FillHole, HoleThatCanOnlyIntersectIsLeftOpenAndNothingChanges) {
   const HoleFillReport r = fill_hole(mesh, *hole, {});
   EXPECT_FALSE(r.filled);
   EXPECT_NE(r.reason.find("intersect"), std::string::npos) << r.reason;
+  EXPECT_EQ(r.reason.find("fragment"), std::string::npos) << r.reason;  // a hole in the grid
   mesh.garbage_collection();
   EXPECT_EQ(mesh.n_faces(), faces_before);
   EXPECT_EQ(testing::boundary_halfedges(mesh), before.boundary);
