@@ -68,11 +68,7 @@ nlohmann::json to_json(const geometry::Hole& h) {
                       {"reference_plane", h.reference_source},
                       {"loop", loop}};
   if (!h.unfillable_reason.empty()) j["unfillable"] = h.unfillable_reason;
-  if (!h.pinched_at.empty()) {
-    nlohmann::json pinched = nlohmann::json::array();
-    for (const auto v : h.pinched_at) pinched.push_back(v.idx());
-    j["pinched_at"] = pinched;
-  }
+  if (!h.pinched_at.empty()) j["pinched_at"] = pinched_ids(h);
   return j;
 }
 

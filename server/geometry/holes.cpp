@@ -207,10 +207,14 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
     {
       // A loop through the same vertex twice (the outside of a bowtie, a hole pinched at a
       // vertex) is not a disk: the fill closes the pinch first (fill_hole).
-      std::set<int> seen, listed;
-      for (const VertexHandle v : hole.loop)
-        if (!seen.insert(v.idx()).second && listed.insert(v.idx()).second)
-          hole.pinched_at.push_back(v);
+      std::vector<int> ids;
+      for (const VertexHandle v : hole.loop) ids.push_back(v.idx());
+      std::sort(ids.begin(), ids.end());
+      for (auto dup = std::adjacent_find(ids.begin(), ids.end()); dup != ids.end();
+           dup = std::adjacent_find(dup, ids.end())) {
+        hole.pinched_at.push_back(VertexHandle(*dup));
+        dup = std::upper_bound(dup, ids.end(), *dup);
+      }
     }
     result.holes.push_back(std::move(hole));
   }

@@ -40,7 +40,7 @@ struct Hole {
   std::string unfillable_reason;
   //! Vertices the loop passes more than once (a hole pinched at a vertex: the region left
   //! between an island of faces and the rest of the surface that it touches at one vertex, the
-  //! outside of a bowtie), each listed once, in loop order. The fill closes each pinch with one
+  //! outside of a bowtie), each listed once, by index. The fill closes each pinch with one
   //! triangle first (see fill_hole).
   std::vector<VertexHandle> pinched_at;
 
