@@ -1295,8 +1295,8 @@ std::vector<int> vertex_ids(const std::vector<VertexHandle>& vertices) {
 //! The triangles that closed a pinched hole's pinches, and the hole left (a disk).
 struct PinchClosure {
   std::vector<FaceHandle> faces;
+  std::vector<std::array<VertexHandle, 3>> corners;  //!< (p, v, a) of each face
   Hole hole;
-  double min_angle_deg = 180;
   std::string failure;  //!< empty on success
 };
 
@@ -1358,8 +1358,7 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
           continue;
         }
         out.faces.push_back(f);
-        out.min_angle_deg =
-            std::min(out.min_angle_deg, std::asin(std::min(c.sine, 1.0)) * 180 / std::numbers::pi);
+        out.corners.push_back({p, v, a});
         // The loop without this corner: p -> a replaces p -> v -> a.
         const std::size_t previous = (i + n - 1) % n;
         halfedges[previous] = joined;
@@ -1394,6 +1393,49 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
   disk.id = hole.id;
   compute_hole_properties(mesh, disk, /*compute_projectability=*/true);
   return out;
+}
+
+//! After the disk is filled, the edge p-a of each pinch-closing triangle (p, v, a), now shared
+//! with a patch triangle (p, a, x), is flipped to v-x when that makes the pair's smaller angle
+//! larger, neither new triangle turns more than 60° from the pair it replaces, and neither meets
+//! another face: the closing triangle was chosen before the patch existed, and this edge is
+//! the one part of it the patch's own mending, which keeps the rim fixed, cannot move. Returns
+//! the number of flips.
+std::size_t flip_pinch_closing_edges(Mesh& mesh, const PinchClosure& closure,
+                                     const SearchReach& reach) {
+  std::size_t flips = 0;
+  const auto sine = [&](VertexHandle a, VertexHandle b, VertexHandle c) {
+    return min_angle_sine(mesh.point(a), mesh.point(b), mesh.point(c));
+  };
+  const auto unit_normal = [&](VertexHandle a, VertexHandle b, VertexHandle c) {
+    Vec3 n = OpenMesh::cross(mesh.point(b) - mesh.point(a), mesh.point(c) - mesh.point(a));
+    return n.normalize_cond();
+  };
+  for (const auto& [p, v, a] : closure.corners) {
+    const HalfedgeHandle h = mesh.find_halfedge(p, a);
+    if (!h.is_valid() || mesh.is_boundary(h)) continue;
+    const FaceHandle g = mesh.face_handle(h);
+    if (std::find(closure.faces.begin(), closure.faces.end(), g) != closure.faces.end()) continue;
+    const VertexHandle x = mesh.to_vertex_handle(mesh.next_halfedge_handle(h));
+    const EdgeHandle e = mesh.edge_handle(h);
+    if (x == v || !mesh.is_flip_ok(e)) continue;
+    if (!(std::min(sine(v, a, x), sine(x, p, v)) > std::min(sine(p, v, a), sine(p, a, x))))
+      continue;
+    const Vec3 before = (unit_normal(p, v, a) + unit_normal(p, a, x)).normalize_cond();
+    if (!(OpenMesh::dot(unit_normal(v, a, x), before) > 0.5) ||
+        !(OpenMesh::dot(unit_normal(x, p, v), before) > 0.5))
+      continue;
+    mesh.flip(e);
+    const HalfedgeHandle flipped = mesh.halfedge_handle(e, 0);
+    const FaceHandle pair[] = {mesh.face_handle(flipped),
+                               mesh.face_handle(mesh.opposite_halfedge_handle(flipped))};
+    if (!find_face_intersections(mesh, pair, 1, reach).empty()) {
+      mesh.flip(e);  // back to p-a
+      continue;
+    }
+    ++flips;
+  }
+  return flips;
 }
 
 //! fill_hole with the search reach kept across holes (the new faces are filed in it).
@@ -1436,9 +1478,10 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
       fmt::format("closed with {} triangle{} across the pinch first", closure.faces.size(),
                   closure.faces.size() == 1 ? "" : "s");
   if (report.filled) {
+    report.flips += flip_pinch_closing_edges(mesh, closure, reach);
     report.new_faces.insert(report.new_faces.begin(), closure.faces.begin(), closure.faces.end());
     report.faces_added += closure.faces.size();
-    report.min_angle_deg = std::min(report.min_angle_deg, closure.min_angle_deg);
+    report.min_angle_deg = min_angle_deg(mesh, report.new_faces);
     report.warnings.insert(report.warnings.begin(), pinched + ": " + closing);
   } else {
     remove_patch(mesh, closure.faces, {});

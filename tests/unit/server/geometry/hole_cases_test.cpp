@@ -886,6 +886,39 @@ TEST(HoleCasesRandom, HolesCutByOverlappingBallsIncludingPinchedOnesAreFilledCle
   EXPECT_GE(pinched_closed, pinched * 3 / 4);
 }
 
+// Four balls cut out of sphere966 (one of the overlapping-ball cuts, seed 1) leave a hole
+// pinched at one vertex. The triangle that closes the pinch, chosen before the patch exists,
+// was a 12.0° sliver beside the patch; flipping its edge across the patch once the disk is
+// filled makes it 22.6°.
+TEST(HoleCasesRandom, PinchClosingTriangleIsFlippedIntoThePatch) {
+  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/sphere966.off");
+  ASSERT_TRUE(read.ok) << read.error;
+  const std::vector<std::pair<Vec3, double>> balls{
+      {Vec3(-1.1703600000000001, 2.5627300000000002, 9.5949299999999997), 5.0329924370324521},
+      {Vec3(-6.2833399999999999, 1.8449500000000001, -7.5575000000000001), 1.8097314025801328},
+      {Vec3(5.1874099999999999, -8.0717700000000008, 2.8173300000000001), 0.58180628145318991},
+      {Vec3(0, -6.54861, 7.5575000000000001), 4.0038659545391253}};
+  const MeshSoup holed = testing::remove_faces(read.soup, [&](const Vec3& c) {
+    return std::any_of(balls.begin(), balls.end(),
+                       [&](const auto& ball) { return (c - ball.first).norm() < ball.second; });
+  });
+  Mesh mesh = build_mesh(holed).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  const FillReport report = fill_holes(mesh, {}, {});
+  const std::string problems = testing::check_fill_invariants(before, mesh, report.holes, holes);
+  EXPECT_TRUE(problems.empty()) << problems;
+  std::size_t pinched = 0;
+  for (const HoleFillReport& r : report.holes) {
+    if (r.warnings.empty() || r.warnings[0].find("pinched") == std::string::npos) continue;
+    ++pinched;
+    ASSERT_TRUE(r.filled);
+    // The closing triangle comes first among the new faces.
+    EXPECT_GE(min_angle_deg(mesh, {r.new_faces.front()}), 15.0);
+  }
+  EXPECT_EQ(pinched, 1u);
+}
+
 // A couplingdown cut whose centre vertex stays on the rim, moved to a tenth of its distance
 // from the next rim vertex (a damaged rim, as RandomHolesWithDamagedRimsAreFilledOrLeftOpenCleanly
 // makes them; found with another seed of it). The crease split draws its curve along the new
