@@ -1,0 +1,133 @@
+#include "server/geometry/pinch_closing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "server/geometry/intersection.h"
+#include "server/geometry/patch_quality.h"
+
+namespace touchmend::geometry {
+
+PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reach) {
+  PinchClosure out;
+  std::vector<VertexHandle> loop = hole.loop;
+  std::vector<HalfedgeHandle> halfedges = hole.halfedges;
+  for (const VertexHandle v : hole.pinched_at) {
+    for (;;) {
+      std::vector<std::size_t> corners;
+      for (std::size_t i = 0; i < loop.size(); ++i)
+        if (loop[i] == v) corners.push_back(i);
+      if (corners.size() < 2) break;
+      struct Candidate {
+        double sine;
+        std::size_t corner;
+      };
+      std::vector<Candidate> candidates;
+      const std::size_t n = loop.size();
+      for (const std::size_t i : corners) {
+        const VertexHandle p = loop[(i + n - 1) % n], a = loop[(i + 1) % n];
+        if (p == a || p == v || a == v) continue;
+        if (mesh.find_halfedge(p, a).is_valid() || mesh.find_halfedge(a, p).is_valid()) continue;
+        const double sine = min_angle_sine(mesh.point(p), mesh.point(v), mesh.point(a));
+        if (!(sine > std::sin(kDegenerateAngleDeg * std::numbers::pi / 180))) continue;
+        candidates.push_back({sine, i});
+      }
+      std::stable_sort(candidates.begin(), candidates.end(),
+                       [](const Candidate& x, const Candidate& y) { return x.sine > y.sine; });
+      bool closed = false;
+      for (const Candidate& c : candidates) {
+        const std::size_t i = c.corner;
+        const VertexHandle p = loop[(i + n - 1) % n], a = loop[(i + 1) % n];
+        // The face across the corner takes the two boundary halfedges p -> v -> a; its third
+        // edge's other half, p -> a, is the loop's new boundary halfedge.
+        const FaceHandle f = mesh.add_face(p, v, a);
+        if (!f.is_valid()) continue;
+        const FaceHandle one[] = {f};
+        if (!find_intersections_with_rest(mesh, one, 1, reach).empty()) {
+          mesh.delete_face(f, false);
+          continue;
+        }
+        const HalfedgeHandle joined = mesh.find_halfedge(p, a);
+        if (!joined.is_valid() || !mesh.is_boundary(joined)) {
+          mesh.delete_face(f, false);
+          continue;
+        }
+        out.faces.push_back(f);
+        out.corners.push_back({p, v, a});
+        // The loop without this corner: p -> a replaces p -> v -> a.
+        const std::size_t previous = (i + n - 1) % n;
+        halfedges[previous] = joined;
+        loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(i));
+        halfedges.erase(halfedges.begin() + static_cast<std::ptrdiff_t>(i));
+        closed = true;
+        break;
+      }
+      if (!closed) {
+        out.failure = fmt::format(
+            "no triangle closes its corners at vertex {} (each would repeat an edge, be "
+            "degenerate, not link into the mesh or meet another face)",
+            v.idx());
+        return out;
+      }
+    }
+  }
+  // The loop as the mesh now links it: from the joined halfedge around, it must be the loop
+  // above (a walk that takes another way at a vertex where more fans meet is not filled).
+  Hole& disk = out.hole;
+  const HalfedgeHandle start = halfedges.front();
+  HalfedgeHandle h = start;
+  do {
+    disk.loop.push_back(mesh.from_vertex_handle(h));
+    disk.halfedges.push_back(h);
+    h = next_hole_halfedge(mesh, h);
+  } while (h.is_valid() && h != start && disk.loop.size() <= loop.size());
+  if (h != start || disk.halfedges != halfedges) {
+    out.failure = "the boundary left after closing the pinch is not one loop";
+    return out;
+  }
+  disk.id = hole.id;
+  compute_hole_properties(mesh, disk, /*compute_projectability=*/true);
+  return out;
+}
+
+std::size_t flip_pinch_closing_edges(Mesh& mesh, const PinchClosure& closure,
+                                     const SearchReach& reach) {
+  std::size_t flips = 0;
+  const auto sine = [&](VertexHandle a, VertexHandle b, VertexHandle c) {
+    return min_angle_sine(mesh.point(a), mesh.point(b), mesh.point(c));
+  };
+  const auto unit_normal = [&](VertexHandle a, VertexHandle b, VertexHandle c) {
+    Vec3 n = OpenMesh::cross(mesh.point(b) - mesh.point(a), mesh.point(c) - mesh.point(a));
+    return n.normalize_cond();
+  };
+  for (const auto& [p, v, a] : closure.corners) {
+    const HalfedgeHandle h = mesh.find_halfedge(p, a);
+    if (!h.is_valid() || mesh.is_boundary(h)) continue;
+    const FaceHandle g = mesh.face_handle(h);
+    if (std::find(closure.faces.begin(), closure.faces.end(), g) != closure.faces.end()) continue;
+    const VertexHandle x = mesh.to_vertex_handle(mesh.next_halfedge_handle(h));
+    const EdgeHandle e = mesh.edge_handle(h);
+    if (x == v || !mesh.is_flip_ok(e)) continue;
+    if (!(std::min(sine(v, a, x), sine(x, p, v)) > std::min(sine(p, v, a), sine(p, a, x))))
+      continue;
+    const Vec3 before = (unit_normal(p, v, a) + unit_normal(p, a, x)).normalize_cond();
+    if (!(OpenMesh::dot(unit_normal(v, a, x), before) > 0.5) ||
+        !(OpenMesh::dot(unit_normal(x, p, v), before) > 0.5))
+      continue;
+    mesh.flip(e);
+    const HalfedgeHandle flipped = mesh.halfedge_handle(e, 0);
+    const FaceHandle pair[] = {mesh.face_handle(flipped),
+                               mesh.face_handle(mesh.opposite_halfedge_handle(flipped))};
+    if (!find_face_intersections(mesh, pair, 1, reach).empty()) {
+      mesh.flip(e);  // back to p-a
+      continue;
+    }
+    ++flips;
+  }
+  return flips;
+}
+
+}  // namespace touchmend::geometry
