@@ -52,8 +52,10 @@ int main(int argc, char** argv) {
                          "List the holes: stable id (smallest boundary vertex index),\n"
                          "boundary edges, perimeter, area, centroid, normal, simple/complex;\n"
                          "a loop through a vertex twice is marked 'pinched at vertex N' (fill\n"
-                         "closes the pinch with one triangle first), a hole that cannot be\n"
-                         "filled at all says why ('unfillable: ...')");
+                         "closes the pinch with one triangle first), the outline of a small\n"
+                         "separate piece says 'border of a separate piece of N faces' (debris:\n"
+                         "delete it rather than fill it), a hole that cannot be filled at all\n"
+                         "says why ('unfillable: ...')");
   holes_cmd->add_option("FILE", holes.file, "Mesh file")->required();
   holes_cmd->add_flag("--json", holes.json,
                       "Print JSON instead of text (includes each hole's vertex loop)");

@@ -131,6 +131,7 @@ nlohmann::json hole_json(const v1::Hole& h) {
           {"normal", {h.normal().x(), h.normal().y(), h.normal().z()}},
           {"loop", std::vector<std::uint32_t>(h.loop().begin(), h.loop().end())},
           {"pinched_at", std::vector<std::uint32_t>(h.pinched_at().begin(), h.pinched_at().end())},
+          {"fragment_faces", h.fragment_faces()},
           {"unfillable_reason", h.unfillable_reason()}};
 }
 
@@ -268,6 +269,7 @@ int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostre
         h.boundary_edges(), h.perimeter(), h.area(), h.simple() ? "simple" : "complex",
         h.centroid().x(), h.centroid().y(), h.centroid().z(),
         pinch_note(std::vector<std::uint32_t>(h.pinched_at().begin(), h.pinched_at().end())) +
+            fragment_note(h.fragment_faces()) +
             (h.unfillable_reason().empty() ? "" : "  unfillable: " + h.unfillable_reason()));
   }
   return kExitOk;

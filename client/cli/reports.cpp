@@ -54,6 +54,12 @@ std::string pinch_note(const std::vector<std::uint32_t>& pinched_at) {
                      fmt::join(pinched_at, ", "));
 }
 
+std::string fragment_note(std::size_t fragment_faces) {
+  if (fragment_faces == 0) return {};
+  return fmt::format("  border of a separate piece of {} face{}", fragment_faces,
+                     fragment_faces == 1 ? "" : "s");
+}
+
 nlohmann::json to_json(const geometry::Hole& h) {
   nlohmann::json loop = nlohmann::json::array();
   for (const auto v : h.loop) loop.push_back(v.idx());
@@ -69,6 +75,7 @@ nlohmann::json to_json(const geometry::Hole& h) {
                       {"loop", loop}};
   if (!h.unfillable_reason.empty()) j["unfillable"] = h.unfillable_reason;
   if (!h.pinched_at.empty()) j["pinched_at"] = pinched_ids(h);
+  if (h.fragment_faces > 0) j["fragment_faces"] = h.fragment_faces;
   return j;
 }
 
@@ -143,7 +150,7 @@ std::string holes_text(const std::vector<geometry::Hole>& holes) {
         h.loop.size(), h.perimeter, h.area, h.is_simple ? "simple" : "complex",
         fmt::format("({:.6g}, {:.6g}, {:.6g})", h.centroid[0], h.centroid[1], h.centroid[2]),
         h.normal[0], h.normal[1], h.normal[2],
-        pinch_note(pinched_ids(h)) +
+        pinch_note(pinched_ids(h)) + fragment_note(h.fragment_faces) +
             (h.unfillable_reason.empty() ? "" : "  unfillable: " + h.unfillable_reason));
   }
   return out;

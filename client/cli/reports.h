@@ -27,4 +27,7 @@ std::string fill_text(const geometry::HoleFillReport& report);
 //! "  pinched at vertex 12" (or "vertices 12, 40"), for a hole listing; empty for none.
 std::string pinch_note(const std::vector<std::uint32_t>& pinched_at);
 
+//! "  border of a separate piece of 2 faces" for a fragment's outline; empty for 0.
+std::string fragment_note(std::size_t fragment_faces);
+
 }  // namespace touchmend::cli

@@ -900,36 +900,6 @@ Box3 hole_region(const Hole& hole, const LoopData& loop) {
   return region;
 }
 
-//! The face count of the piece of surface \p hole borders when that piece is a small fragment:
-//! connected to nothing else, bordered by this loop alone, and of no more faces than the loop
-//! has edges (a lone triangle a cut left, a few faces of a scan's debris); 0 otherwise. Its only
-//! "fill" is a second skin on its back, which the intersection test refuses. Measured on random
-//! cuts of overlapping balls into the shared meshes: 6 of the 20 holes left open (seeds 1-3) are
-//! such outlines, of one to four faces.
-std::size_t fragment_faces(const Mesh& mesh, const Hole& hole) {
-  const std::size_t limit = hole.loop.size();
-  std::set<int> piece;
-  std::vector<FaceHandle> stack;
-  for (const HalfedgeHandle h : hole.halfedges) {
-    const FaceHandle f = mesh.opposite_face_handle(h);
-    if (f.is_valid() && piece.insert(f.idx()).second) stack.push_back(f);
-  }
-  std::size_t border = 0;
-  while (!stack.empty()) {
-    if (piece.size() > limit) return 0;
-    const FaceHandle f = stack.back();
-    stack.pop_back();
-    for (const HalfedgeHandle h : mesh.fh_range(f)) {
-      const FaceHandle g = mesh.opposite_face_handle(h);
-      if (!g.is_valid())
-        ++border;
-      else if (piece.insert(g.idx()).second)
-        stack.push_back(g);
-    }
-  }
-  return piece.size() <= limit && border == hole.loop.size() ? piece.size() : 0;
-}
-
 //! fill_hole of a hole whose loop passes each vertex once (fill_hole_cached closes pinches
 //! first), with the search reach kept across holes (the new faces are filed in it).
 HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& options,
@@ -1279,7 +1249,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
           "repair it there first",
           pairs >= kCountUpTo ? "at least " : "", pairs);
   }
-  if (const std::size_t piece = fragment_faces(mesh, hole); piece > 0)
+  if (const std::size_t piece = count_fragment_faces(mesh, hole); piece > 0)
     report.reason += fmt::format(
         "; the loop is the whole border of a separate piece of {} face{} (a fragment, not a "
         "hole in a surface): a patch would lie on the piece itself; delete the piece instead",

@@ -180,6 +180,30 @@ std::string out_of_range_reason(const Mesh& mesh, const Hole& hole) {
 
 }  // namespace
 
+std::size_t count_fragment_faces(const Mesh& mesh, const Hole& hole) {
+  const std::size_t limit = hole.loop.size();
+  std::set<int> piece;
+  std::vector<FaceHandle> stack;
+  for (const HalfedgeHandle h : hole.halfedges) {
+    const FaceHandle f = mesh.opposite_face_handle(h);
+    if (f.is_valid() && piece.insert(f.idx()).second) stack.push_back(f);
+  }
+  std::size_t border = 0;
+  while (!stack.empty()) {
+    if (piece.size() > limit) return 0;
+    const FaceHandle f = stack.back();
+    stack.pop_back();
+    for (const HalfedgeHandle h : mesh.fh_range(f)) {
+      const FaceHandle g = mesh.opposite_face_handle(h);
+      if (!g.is_valid())
+        ++border;
+      else if (piece.insert(g.idx()).second)
+        stack.push_back(g);
+    }
+  }
+  return piece.size() <= limit && border == hole.loop.size() ? piece.size() : 0;
+}
+
 HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) {
   HoleSearchResult result;
   std::vector<std::uint8_t> visited(mesh.n_halfedges(), 0);
@@ -216,6 +240,7 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
         dup = std::upper_bound(dup, ids.end(), *dup);
       }
     }
+    hole.fragment_faces = count_fragment_faces(mesh, hole);
     result.holes.push_back(std::move(hole));
   }
   // Deterministic order by the smallest hole halfedge (u, v), then stable ids.

@@ -297,6 +297,7 @@ v1::Hole SessionGeometry::hole_to_proto(const geometry::Hole& hole) const {
   out.set_unfillable_reason(hole.unfillable_reason);
   for (const auto v : hole.pinched_at)
     out.add_pinched_at(doc_vertex(static_cast<std::size_t>(v.idx())));
+  out.set_fragment_faces(static_cast<std::uint32_t>(hole.fragment_faces));
   return out;
 }
 

@@ -238,6 +238,28 @@ TEST(Service, PinchedHoleIsListedFilledAndUndoneThroughTheServer) {
   EXPECT_EQ(holes.holes(0).pinched_at_size(), 1);
 }
 
+// The outline of a lone triangle beside a grid is listed over the wire as a fragment's border.
+TEST(Service, HoleListingMarksAFragmentsOutline) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient client(channel);
+  geometry::MeshSoup soup = testing::grid(4, 4);
+  const auto base = static_cast<std::uint32_t>(soup.points.size());
+  soup.points.push_back({10, 0, 0});
+  soup.points.push_back({11, 0, 0});
+  soup.points.push_back({10, 1, 0});
+  soup.triangles.push_back({base, base + 1, base + 2});
+  const std::string session = make_session(client, "debris", testing::to_off(soup), "debris.off");
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  ASSERT_EQ(holes.holes_size(), 2);
+  for (const v1::Hole& h : holes.holes())
+    EXPECT_EQ(h.fragment_faces(), h.boundary_edges() == 3 ? 1u : 0u) << h.id();
+}
+
 TEST(Service, ALongFillDoesNotBlockOtherSessions) {
   TempDir dir;
   ServerProcess server(dir.path(), {"--workers", "2"});

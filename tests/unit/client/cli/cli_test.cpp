@@ -390,6 +390,27 @@ TEST_F(Cli, PinchedHoleIsListedWithItsPinchAndFilled) {
   EXPECT_EQ(boundary_edges, 0u);
 }
 
+// The outline of a lone triangle is listed as the border of a separate piece (text and JSON).
+TEST_F(Cli, HolesMarkTheOutlineOfALoneTriangle) {
+  geometry::MeshSoup s = testing::grid(4, 4);
+  const auto base = static_cast<std::uint32_t>(s.points.size());
+  s.points.push_back({10, 0, 0});
+  s.points.push_back({11, 0, 0});
+  s.points.push_back({10, 1, 0});
+  s.triangles.push_back({base, base + 1, base + 2});
+  write("debris.off", testing::to_off(s));
+  const CliRun text = run("holes " + path("debris.off"));
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("border of a separate piece of 1 face"), std::string::npos) << text.out;
+  const CliRun json = run("holes " + path("debris.off") + " --json");
+  ASSERT_EQ(json.code, 0) << json.err;
+  std::size_t fragments = 0;
+  const auto listing = nlohmann::json::parse(json.out);
+  for (const auto& h : listing["holes"])
+    if (h.contains("fragment_faces")) fragments += h["fragment_faces"].get<std::size_t>();
+  EXPECT_EQ(fragments, 1u);
+}
+
 TEST_F(Cli, FillOneHoleByIdOrByPointLeavesTheOthers) {
   const CliRun holes = run("holes " + spot_ + " --json");
   const auto h = nlohmann::json::parse(holes.out)["holes"];
