@@ -1249,7 +1249,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
           "repair it there first",
           pairs >= kCountUpTo ? "at least " : "", pairs);
   }
-  if (const std::size_t piece = count_fragment_faces(mesh, hole); piece > 0)
+  if (const std::size_t piece = hole.fragment_faces; piece > 0)
     report.reason += fmt::format(
         "; the loop is the whole border of a separate piece of {} face{} (a fragment, not a "
         "hole in a surface): a patch would lie on the piece itself; delete the piece instead",
@@ -1266,7 +1266,7 @@ std::vector<int> vertex_ids(const std::vector<VertexHandle>& vertices) {
 //! fill_hole with the search reach kept across holes (the new faces are filed in it).
 HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
                                 SearchReach& reach) {
-  if (!hole.unfillable_reason.empty() || hole.pinched_at.empty() || hole.loop.size() < 3)
+  if (!hole.unfillable_reason.empty() || hole.pinched_at.empty())
     return fill_disk_hole(mesh, hole, options, reach);
   const auto start = Clock::now();
   if (!(reach.longest_edge > 0)) reach = make_search_reach(mesh);

@@ -68,6 +68,7 @@ HalfedgeHandle next_hole_halfedge(const Mesh& mesh, HalfedgeHandle incoming) {
 }
 
 void compute_hole_properties(const Mesh& mesh, Hole& hole, bool compute_projectability) {
+  hole.fragment_faces = count_fragment_faces(mesh, hole);
   const std::size_t n = hole.loop.size();
   std::vector<Vec3> points(n);
   for (std::size_t i = 0; i < n; ++i) points[i] = mesh.point(hole.loop[i]);
@@ -240,7 +241,6 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
         dup = std::upper_bound(dup, ids.end(), *dup);
       }
     }
-    hole.fragment_faces = count_fragment_faces(mesh, hole);
     result.holes.push_back(std::move(hole));
   }
   // Deterministic order by the smallest hole halfedge (u, v), then stable ids.

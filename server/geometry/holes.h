@@ -44,7 +44,7 @@ struct Hole {
   //! triangle first (see fill_hole).
   std::vector<VertexHandle> pinched_at;
   //! When the loop is the whole border of a small separate piece (count_fragment_faces): its
-  //! face count; 0 otherwise.
+  //! face count; 0 otherwise. Set with the other properties (compute_hole_properties).
   std::size_t fragment_faces = 0;
 
   std::size_t size() const { return loop.size(); }

@@ -255,14 +255,18 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
   state.guide = make_guide_surface(*curve.curve, normal, hole.mean_edge_length,
                                    std::max(diameter, 3 * reach));
   result.snap = snap_to_guide(mesh, state, options.snap);
-  if (state.on_guide.empty()) {
-    result.failure =
-        "the Hermite curve does not cross the filled patch (seen along the hole normal): pick P2 "
-        "and P3 on the hole's rim where the crease meets it";
-    for (const FaceHandle f : state.patch)
+  // The caller asked for a sharp edge, not a plain fill: a refusal leaves the hole as it was.
+  const auto refuse = [&](std::string why, const std::vector<FaceHandle>& patch) {
+    result.failure = std::move(why);
+    for (const FaceHandle f : patch)
       if (!mesh.status(f).deleted()) mesh.delete_face(f, true);
     return result;
-  }
+  };
+  if (state.on_guide.empty())
+    return refuse(
+        "the Hermite curve does not cross the filled patch (seen along the hole normal): pick P2 "
+        "and P3 on the hole's rim where the crease meets it",
+        state.patch);
   PushOptions push;
   push.depth = options.depth;
   result.pushed = push_all(mesh, state, push);
@@ -276,28 +280,20 @@ SharpenResult sharpen_hole(Mesh& mesh, const Hole& hole, const HermitePoints& pi
   // A finish that was kept was checked with the pushes in place; otherwise check the pushes.
   const bool checked = options.finish != PushFinish::None && result.finish.undone.empty();
   if (options.fill.check_intersections && !checked &&
-      !find_face_intersections(mesh, result.patch, 1, max_edge_length(mesh)).empty()) {
-    result.failure =
+      !find_face_intersections(mesh, result.patch, 1, max_edge_length(mesh)).empty())
+    return refuse(
         "the retained edge makes the patch intersect the mesh (check the picked points and the "
-        "depth)";
-    // The caller asked for a sharp edge, not a plain fill: leave the hole as it was.
-    for (const FaceHandle f : result.patch)
-      if (!mesh.status(f).deleted()) mesh.delete_face(f, true);
-    return result;
-  }
+        "depth)",
+        result.patch);
   // Two curtain vertices with nearly the same place along the curve end at nearly the same
   // point once pushed onto it, and the triangle between them and a third vertex is a needle
   // (random picks with chord tangents and k of 2.7-4.6: 2 of about 2,400 push-downs, 0.004° and
   // 0.03°). Refused like an intersection; the split variant does not push.
-  if (const double worst = min_angle_deg(mesh, result.patch); worst < kDegenerateAngleDeg) {
-    result.failure = fmt::format(
-        "the retained edge leaves a degenerate triangle ({:.3f}°): pick the points again, "
-        "change k, or use the split variant",
-        worst);
-    for (const FaceHandle f : result.patch)
-      if (!mesh.status(f).deleted()) mesh.delete_face(f, true);
-    return result;
-  }
+  if (const double worst = min_angle_deg(mesh, result.patch); worst < kDegenerateAngleDeg)
+    return refuse(fmt::format("the retained edge leaves a degenerate triangle ({:.3f}°): pick "
+                              "the points again, change k, or use the split variant",
+                              worst),
+                  result.patch);
   result.ok = true;
   return result;
 }

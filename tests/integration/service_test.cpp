@@ -246,13 +246,9 @@ TEST(Service, HoleListingMarksAFragmentsOutline) {
   auto channel = server.connect();
   ASSERT_TRUE(channel);
   RepairClient client(channel);
-  geometry::MeshSoup soup = testing::grid(4, 4);
-  const auto base = static_cast<std::uint32_t>(soup.points.size());
-  soup.points.push_back({10, 0, 0});
-  soup.points.push_back({11, 0, 0});
-  soup.points.push_back({10, 1, 0});
-  soup.triangles.push_back({base, base + 1, base + 2});
-  const std::string session = make_session(client, "debris", testing::to_off(soup), "debris.off");
+  const std::string session = make_session(
+      client, "debris",
+      testing::to_off(testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0})), "debris.off");
   v1::ListHolesResponse holes;
   ASSERT_TRUE(client.list_holes(session, holes).is_ok());
   ASSERT_EQ(holes.holes_size(), 2);

@@ -176,6 +176,15 @@ MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double 
   });
 }
 
+MeshSoup with_lone_triangle(MeshSoup soup, const Vec3& corner) {
+  const auto base = static_cast<std::uint32_t>(soup.points.size());
+  soup.points.push_back(corner);
+  soup.points.push_back(corner + Vec3(1, 0, 0));
+  soup.points.push_back(corner + Vec3(0, 1, 0));
+  soup.triangles.push_back({base, base + 1, base + 2});
+  return soup;
+}
+
 MeshSoup cube_with_hole(int n, const Vec3& centre, double radius) {
   return remove_faces(cube(n), [&](const Vec3& c) { return (c - centre).norm() < radius; });
 }

@@ -48,6 +48,10 @@ MeshSoup remove_faces(const MeshSoup& soup, const std::function<bool(const Vec3&
 //! when no face qualifies.
 MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double radius);
 
+//! \p soup with a separate right triangle of unit legs added at \p corner (in z = corner's z):
+//! a fragment, whose outline is a three-edge loop.
+MeshSoup with_lone_triangle(MeshSoup soup, const Vec3& corner);
+
 //! The cube [0, n]³ with the faces whose centroid lies within \p radius of \p centre removed
 //! (a hole across an edge or a corner when the centre is on one).
 MeshSoup cube_with_hole(int n, const Vec3& centre, double radius);

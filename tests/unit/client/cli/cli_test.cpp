@@ -392,13 +392,8 @@ TEST_F(Cli, PinchedHoleIsListedWithItsPinchAndFilled) {
 
 // The outline of a lone triangle is listed as the border of a separate piece (text and JSON).
 TEST_F(Cli, HolesMarkTheOutlineOfALoneTriangle) {
-  geometry::MeshSoup s = testing::grid(4, 4);
-  const auto base = static_cast<std::uint32_t>(s.points.size());
-  s.points.push_back({10, 0, 0});
-  s.points.push_back({11, 0, 0});
-  s.points.push_back({10, 1, 0});
-  s.triangles.push_back({base, base + 1, base + 2});
-  write("debris.off", testing::to_off(s));
+  write("debris.off",
+        testing::to_off(testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0})));
   const CliRun text = run("holes " + path("debris.off"));
   ASSERT_EQ(text.code, 0) << text.err;
   EXPECT_NE(text.out.find("border of a separate piece of 1 face"), std::string::npos) << text.out;

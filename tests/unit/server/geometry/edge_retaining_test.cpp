@@ -133,11 +133,31 @@ TEST(PushDown, StepsToTheCurveAndStopsOrGoesToTheDepth) {
 // Two curtain vertices joined by an edge at (almost) the same place along the curve: once the
 // first is down, pushing the second onto it would make the triangles at their edge needles.
 // The push stops short of that, says why, and leaves no triangle under the degenerate angle.
-TEST(PushDown, StopsWhereItWouldLeaveADegenerateTriangle) {
+//! filled_grid(5) with a straight curtain off the grid's symmetry line, snapped.
+FilledGrid snapped_grid() {
   FilledGrid g = filled_grid(5);
   g.state.guide =
       make_guide_surface(straight({2, 2.9, -0.5}, {4, 2.9, -0.5}), {0, 0, 1}, 0.25, 2.0);
   snap_to_guide(g.mesh, g.state);
+  return g;
+}
+
+//! Curtain vertex \p v lifted half a unit straight above curtain vertex \p below (at the same
+//! place along the curve): its step down would end on \p below, a needle.
+void lift_above(FilledGrid& g, VertexHandle v, VertexHandle below) {
+  CurtainPoint& c = g.state.on_guide[v.idx()];
+  c.t = g.state.on_guide[below.idx()].t;
+  c.s = 0.5;
+  g.mesh.set_point(v, g.mesh.point(below) + 0.5 * g.state.guide.normal);
+}
+
+double min_angle_around(const Mesh& mesh, VertexHandle v) {
+  const std::vector<FaceHandle> faces(mesh.vf_range(v).begin(), mesh.vf_range(v).end());
+  return min_angle_deg(mesh, faces);
+}
+
+TEST(PushDown, StopsWhereItWouldLeaveADegenerateTriangle) {
+  FilledGrid g = snapped_grid();
   // A curtain vertex and a curtain neighbour of it.
   VertexHandle first, second;
   for (const auto& [index, c] : g.state.on_guide) {
@@ -164,24 +184,16 @@ TEST(PushDown, StopsWhereItWouldLeaveADegenerateTriangle) {
     return last;
   };
   push_all(g.mesh, g.state, {});  // every curtain vertex down to the curve ...
-  // ... then the second lifted back up straight above the first.
-  CurtainPoint& c = g.state.on_guide[second.idx()];
-  c.t = g.state.on_guide[first.idx()].t;
-  c.s = 0.5;
-  g.mesh.set_point(second, g.mesh.point(first) + 0.5 * g.state.guide.normal);
+  lift_above(g, second, first);   // ... then the second lifted back up above the first
   const PushResult r = sweep_at(second, 100);
   EXPECT_FALSE(r.moved);
   EXPECT_NE(r.why_not.find("degenerate triangle"), std::string::npos) << r.why_not;
   EXPECT_GT(g.state.on_guide[second.idx()].s, 0.0);  // stopped above the curve
-  std::vector<FaceHandle> around(g.mesh.vf_range(second).begin(), g.mesh.vf_range(second).end());
-  EXPECT_GE(min_angle_deg(g.mesh, around), kDegenerateAngleDeg);
+  EXPECT_GE(min_angle_around(g.mesh, second), kDegenerateAngleDeg);
 }
 
 TEST(PushDown, PassesOverAVertexWhoseStepWouldLeaveADegenerateTriangle) {
-  FilledGrid g = filled_grid(5);
-  g.state.guide =
-      make_guide_surface(straight({2, 2.9, -0.5}, {4, 2.9, -0.5}), {0, 0, 1}, 0.25, 2.0);
-  snap_to_guide(g.mesh, g.state);
+  FilledGrid g = snapped_grid();
   // A curtain vertex with two curtain neighbours.
   VertexHandle first, second, third;
   for (const auto& [index, c] : g.state.on_guide) {
@@ -199,10 +211,7 @@ TEST(PushDown, PassesOverAVertexWhoseStepWouldLeaveADegenerateTriangle) {
   push_all(g.mesh, g.state, {});
   // The second lifted straight above the first (its step down would make a needle), the third
   // lifted above its own place on the curve (free to go down).
-  CurtainPoint& lifted = g.state.on_guide[second.idx()];
-  lifted.t = g.state.on_guide[first.idx()].t;
-  lifted.s = 0.5;
-  g.mesh.set_point(second, g.mesh.point(first) + 0.5 * g.state.guide.normal);
+  lift_above(g, second, first);
   g.state.on_guide[third.idx()].s = 0.5;
   g.mesh.set_point(third, g.mesh.point(third) + 0.5 * g.state.guide.normal);
   FaceHandle touched;
@@ -229,18 +238,12 @@ TEST(PushDown, PassesOverAVertexWhoseStepWouldLeaveADegenerateTriangle) {
   EXPECT_EQ(steps.size(), 2u);
   EXPECT_GT(g.state.on_guide[second.idx()].s, 0.0);  // stopped above the curve
   EXPECT_EQ(g.state.on_guide[third.idx()].s, 0.0);   // at the curve
-  std::vector<FaceHandle> blocked(g.mesh.vf_range(second).begin(), g.mesh.vf_range(second).end());
-  EXPECT_GE(min_angle_deg(g.mesh, blocked), kDegenerateAngleDeg);
-  std::vector<FaceHandle> around(g.mesh.vf_range(third).begin(), g.mesh.vf_range(third).end());
-  EXPECT_GE(min_angle_deg(g.mesh, around), kDegenerateAngleDeg);
+  EXPECT_GE(min_angle_around(g.mesh, second), kDegenerateAngleDeg);
+  EXPECT_GE(min_angle_around(g.mesh, third), kDegenerateAngleDeg);
 }
 
 TEST(PushDown, MovesOnToTheTouchedTrianglesNeighboursOnceItsVerticesAreDone) {
-  FilledGrid g = filled_grid(5);
-  // Off the grid's symmetry line, so the curtain cuts many patch edges.
-  g.state.guide =
-      make_guide_surface(straight({2, 2.9, -0.5}, {4, 2.9, -0.5}), {0, 0, 1}, 0.25, 2.0);
-  snap_to_guide(g.mesh, g.state);
+  FilledGrid g = snapped_grid();  // off the symmetry line: the curtain cuts many patch edges
   ASSERT_GE(g.state.on_guide.size(), 3u);
   const VertexHandle first(g.state.on_guide.begin()->first);
   FaceHandle touched;

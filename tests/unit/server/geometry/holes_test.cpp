@@ -104,12 +104,7 @@ TEST(FindHoles, PinchedLoopListsItsPinch) {
 // A lone triangle beside a grid: its outline is a loop bordering a piece of one face; the grid's
 // outer border borders a piece of 128 faces, far more than its 32 edges: no fragment.
 TEST(FindHoles, OutlineOfALoneTriangleIsMarkedAsAFragment) {
-  MeshSoup s = testing::grid(8, 8);
-  const auto base = static_cast<std::uint32_t>(s.points.size());
-  s.points.push_back({20, 0, 0});
-  s.points.push_back({21, 0, 0});
-  s.points.push_back({20, 1, 0});
-  s.triangles.push_back({base, base + 1, base + 2});
+  const MeshSoup s = testing::with_lone_triangle(testing::grid(8, 8), {20, 0, 0});
   const auto holes = find_holes(build_mesh(s).mesh).holes;
   ASSERT_EQ(holes.size(), 2u);
   for (const Hole& h : holes) EXPECT_EQ(h.fragment_faces, h.loop.size() == 3 ? 1u : 0u);
