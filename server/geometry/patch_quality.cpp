@@ -1040,7 +1040,7 @@ class Patch {
     const VertexHandle v = mesh_.from_vertex_handle(h), w = mesh_.to_vertex_handle(h);
     Vec3 normal;
     if (mesh_.is_boundary(h) || mesh_.is_boundary(mesh_.opposite_halfedge_handle(h)) ||
-        !free(v, normal) || !mesh_.is_collapse_ok(h))
+        !free(v, normal))
       return -1;
     const Vec3 target = mesh_.point(w);
     const Vec3 p = mesh_.point(v);
@@ -1060,7 +1060,9 @@ class Patch {
         return -1;
       after = std::min(after, triangle_shape(target, pb, pc));
     }
-    return after > before + 1e-9 ? after : -1;
+    // The topology test last: it walks both one-rings, and most candidates fail the cheaper
+    // geometric tests above (measured: it was 9% of a small crease-split fill).
+    return after > before + 1e-9 && mesh_.is_collapse_ok(h) ? after : -1;
   }
 
   //! After collapses: the patch's lists hold only live faces and vertices.
@@ -1074,10 +1076,12 @@ class Patch {
   }
 
   bool try_flip(EdgeHandle e) {
-    if (!interior(e) || !mesh_.is_flip_ok(e)) return false;
+    // Both faces in the patch: the quad exists. The topology test (the flipped edge must not
+    // exist yet) walks a one-ring, so it comes after the geometric one most edges fail.
+    if (!interior(e)) return false;
     const HalfedgeHandle h0 = mesh_.halfedge_handle(e, 0), h1 = mesh_.halfedge_handle(e, 1);
     const FlipQuad quad(mesh_, h0);
-    if (!quad.improves(flip_turn_cos_)) return false;
+    if (!quad.improves(flip_turn_cos_) || !mesh_.is_flip_ok(e)) return false;
     // A flat patch keeps its surface: the two diagonals of the quad bound how far a flip moves
     // it (zero for coplanar triangles, a sliver's width for a sliver, the fold's depth across a
     // crease), and that may be at most a small part of the quad.
