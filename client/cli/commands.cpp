@@ -149,6 +149,7 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
   options.creases.partner_angle_deg =
       std::min(options.creases.partner_angle_deg, args.crease_angle);
   options.refine_iterations = args.refine_iterations;
+  options.remove_fragments = args.remove_fragments;
   auto loaded = load(args.file, err);
   if (!loaded) return kExitBadInput;
   geometry::Mesh& mesh = loaded->built.mesh;
@@ -208,6 +209,7 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
   const std::size_t open = report.left_open();
   std::size_t skipped = 0;
   for (const auto& h : report.holes) skipped += h.skipped ? 1 : 0;
+  const std::size_t removed = report.fragments_removed();
   if (args.json) {
     nlohmann::json holes = nlohmann::json::array();
     for (const auto& h : report.holes) holes.push_back(to_json(h));
@@ -218,6 +220,7 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
                           {"filled", filled},
                           {"left_open", open},
                           {"skipped", skipped},
+                          {"fragments_removed", removed},
                           {"vertices_written", written.vertices_written},
                           {"faces_written", written.faces_written},
                           {"holes", holes}}
@@ -225,9 +228,7 @@ int run_fill(const FillArgs& args, std::ostream& out, std::ostream& err) {
         << "\n";
   } else {
     for (const auto& h : report.holes) out << fill_text(h);
-    out << fmt::format(
-        "filled {} of {} selected holes ({} left open, {} skipped; {} holes in the mesh)\n", filled,
-        report.holes.size(), open, skipped, report.holes_found);
+    out << fill_summary(filled, report.holes.size(), open, skipped, removed, report.holes_found);
     out << fmt::format("wrote {} ({} vertices, {} faces)\n", args.output, written.vertices_written,
                        written.faces_written);
   }

@@ -52,8 +52,9 @@ struct FillArgs {
   std::size_t max_boundary = 0;
   int refine_iterations = 3;
   std::string shape = "auto";
-  std::string sharp = "auto";  //!< auto | off: retain the creases that cross each hole
-  double crease_angle = 50;    //!< dihedral angle (degrees) above which an edge is a crease
+  std::string sharp = "auto";     //!< auto | off: retain the creases that cross each hole
+  double crease_angle = 50;       //!< dihedral angle (degrees) above which an edge is a crease
+  bool remove_fragments = false;  //!< delete the small separate pieces a selected loop borders
   bool json = false;
   bool binary = false;
   bool strict = false;

@@ -47,15 +47,15 @@ int main(int argc, char** argv) {
   info_cmd->add_flag("--json", info.json, "Print JSON instead of text");
 
   HolesArgs holes;
-  auto* holes_cmd =
-      app.add_subcommand("holes",
-                         "List the holes: stable id (smallest boundary vertex index),\n"
-                         "boundary edges, perimeter, area, centroid, normal, simple/complex;\n"
-                         "a loop through a vertex twice is marked 'pinched at vertex N' (fill\n"
-                         "closes the pinch with one triangle first), the outline of a small\n"
-                         "separate piece says 'border of a separate piece of N faces' (debris:\n"
-                         "delete it rather than fill it), a hole that cannot be filled at all\n"
-                         "says why ('unfillable: ...')");
+  auto* holes_cmd = app.add_subcommand(
+      "holes",
+      "List the holes: stable id (smallest boundary vertex index),\n"
+      "boundary edges, perimeter, area, centroid, normal, simple/complex;\n"
+      "a loop through a vertex twice is marked 'pinched at vertex N' (fill\n"
+      "closes the pinch with one triangle first), the outline of a small\n"
+      "separate piece says 'border of a separate piece of N faces' (debris:\n"
+      "fill --remove-fragments deletes it), a hole that cannot be filled at all\n"
+      "says why ('unfillable: ...')");
   holes_cmd->add_option("FILE", holes.file, "Mesh file")->required();
   holes_cmd->add_flag("--json", holes.json,
                       "Print JSON instead of text (includes each hole's vertex loop)");
@@ -113,6 +113,12 @@ int main(int argc, char** argv) {
           "crease (a weaker one, down to 30, may continue a crease across a hole)")
       ->check(CLI::Range(1.0, 179.0))
       ->capture_default_str();
+  fill_cmd->add_flag(
+      "--remove-fragments", fill.remove_fragments,
+      "A selected loop that is the whole border of a small separate piece (`holes` marks it\n"
+      "\"border of a separate piece of N faces\": a lone triangle, scan debris) cannot be\n"
+      "filled; with this flag the piece is deleted instead (its vertices too, unless the\n"
+      "surface shares them) and the report says so");
   fill_cmd->add_flag("--json", fill.json, "Print the fill report as JSON");
   fill_cmd->add_flag("--binary", fill.binary, "Write binary PLY (doubles) or binary STL (floats)");
   fill_cmd->add_flag("--strict", fill.strict, "Exit with 3 when a selected hole is left open");
@@ -237,6 +243,8 @@ int main(int argc, char** argv) {
   submit_cmd->add_option("--shape", job.fill.shape, "flat, fair or auto")
       ->check(CLI::IsMember({"flat", "fair", "auto"}))
       ->capture_default_str();
+  submit_cmd->add_flag("--remove-fragments", job.fill.remove_fragments,
+                       "Delete the small separate pieces a selected loop borders (see `fill`)");
   submit_cmd->add_flag("--binary", job.fill.binary, "Binary PLY/STL result");
   submit_cmd->add_flag("--wait", job.wait,
                        "Wait for the job, showing progress, and print its report");

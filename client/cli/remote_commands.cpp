@@ -118,6 +118,7 @@ bool make_selection(const FillArgs& args, v1::HoleSelection& selection, v1::Fill
     return false;
   }
   options.set_crease_angle_deg(args.crease_angle);
+  options.set_remove_fragments(args.remove_fragments);
   return true;
 }
 
@@ -147,11 +148,14 @@ nlohmann::json fill_json(const v1::HoleFillResult& r) {
           {"faces_added", r.faces_added()},
           {"vertices_added", r.vertices_added()},
           {"min_angle_deg", r.min_angle_deg()},
+          {"fragment_faces_removed", r.fragment_faces_removed()},
           {"seconds", r.seconds()}};
 }
 
 std::string fill_line(const v1::HoleFillResult& r) {
   if (r.skipped()) return fmt::format("hole {:>6}: skipped ({})\n", r.hole_id(), r.reason());
+  if (r.fragment_faces_removed() > 0)
+    return fmt::format("hole {:>6}: removed: {}\n", r.hole_id(), r.reason());
   if (!r.filled()) return fmt::format("hole {:>6}: LEFT OPEN: {}\n", r.hole_id(), r.reason());
   return fmt::format(
       "hole {:>6}: filled, {} boundary edges, method {}, shape {} ({}), {} faces and {} vertices "
@@ -160,14 +164,23 @@ std::string fill_line(const v1::HoleFillResult& r) {
       r.vertices_added(), r.min_angle_deg(), r.seconds() * 1e3);
 }
 
+//! Holes neither filled, skipped, nor closed by removing a fragment.
+std::size_t left_open(const v1::FillReport& report) {
+  std::size_t open = 0;
+  for (const auto& h : report.holes())
+    open += !h.filled() && !h.skipped() && h.fragment_faces_removed() == 0;
+  return open;
+}
+
 void print_fill_report(const v1::FillReport& report, bool json, const nlohmann::json& extra,
                        std::ostream& out) {
-  std::size_t filled = 0, open = 0, skipped = 0;
+  std::size_t filled = 0, open = 0, skipped = 0, removed = 0;
   for (const auto& h : report.holes()) {
     filled += h.filled();
     skipped += h.skipped();
-    open += !h.filled() && !h.skipped();
+    removed += h.fragment_faces_removed() > 0;
   }
+  open = left_open(report);
   if (json) {
     nlohmann::json holes = nlohmann::json::array();
     for (const auto& h : report.holes()) holes.push_back(fill_json(h));
@@ -177,20 +190,14 @@ void print_fill_report(const v1::FillReport& report, bool json, const nlohmann::
     j["filled"] = filled;
     j["left_open"] = open;
     j["skipped"] = skipped;
+    j["fragments_removed"] = removed;
     j["holes"] = holes;
     out << j.dump(2) << "\n";
     return;
   }
   for (const auto& h : report.holes()) out << fill_line(h);
-  out << fmt::format(
-      "filled {} of {} selected holes ({} left open, {} skipped; {} holes in the mesh)\n", filled,
-      report.holes_size(), open, skipped, report.holes_found());
-}
-
-std::size_t left_open(const v1::FillReport& report) {
-  std::size_t open = 0;
-  for (const auto& h : report.holes()) open += !h.filled() && !h.skipped();
-  return open;
+  out << fill_summary(filled, static_cast<std::size_t>(report.holes_size()), open, skipped, removed,
+                      report.holes_found());
 }
 
 //! A temporary session holding the uploaded file; closed (deleted) on scope exit.

@@ -79,6 +79,16 @@ nlohmann::json to_json(const geometry::Hole& h) {
   return j;
 }
 
+std::string fill_summary(std::size_t filled, std::size_t selected, std::size_t open,
+                         std::size_t skipped, std::size_t fragments_removed, std::size_t found) {
+  return fmt::format(
+      "filled {} of {} selected holes ({} left open, {} skipped{}; {} holes in the mesh)\n", filled,
+      selected, open, skipped,
+      fragments_removed > 0 ? fmt::format(", {} closed by removing a fragment", fragments_removed)
+                            : std::string{},
+      found);
+}
+
 nlohmann::json to_json(const geometry::HoleFillReport& r) {
   nlohmann::json j = {{"hole", r.hole_id},
                       {"boundary_edges", r.boundary_vertices},
@@ -88,6 +98,11 @@ nlohmann::json to_json(const geometry::HoleFillReport& r) {
     j["skipped"] = true;
     j["reason"] = r.reason;
     return j;
+  }
+  if (r.fragment_removed()) {
+    j["fragment_removed"] = true;
+    j["faces_removed"] = r.removed_faces.size();
+    j["vertices_removed"] = r.removed_vertices.size();
   }
   if (!r.filled) {
     j["reason"] = r.reason;
@@ -158,6 +173,7 @@ std::string holes_text(const std::vector<geometry::Hole>& holes) {
 
 std::string fill_text(const geometry::HoleFillReport& r) {
   if (r.skipped) return fmt::format("hole {:>6}: skipped ({})\n", r.hole_id, r.reason);
+  if (r.fragment_removed()) return fmt::format("hole {:>6}: removed: {}\n", r.hole_id, r.reason);
   if (!r.filled) return fmt::format("hole {:>6}: LEFT OPEN: {}\n", r.hole_id, r.reason);
   std::string out = fmt::format(
       "hole {:>6}: filled, {} boundary edges, method {}, shape {} ({}), {} faces and {} vertices "

@@ -29,5 +29,9 @@ std::string pinch_note(const std::vector<std::uint32_t>& pinched_at);
 
 //! "  border of a separate piece of 2 faces" for a fragment's outline; empty for 0.
 std::string fragment_note(std::size_t fragment_faces);
+//! The fill's closing line: "filled F of S selected holes (O left open, K skipped[, R closed by
+//! removing a fragment]; H holes in the mesh)", the same locally and through a server.
+std::string fill_summary(std::size_t filled, std::size_t selected, std::size_t open,
+                         std::size_t skipped, std::size_t fragments_removed, std::size_t found);
 
 }  // namespace touchmend::cli

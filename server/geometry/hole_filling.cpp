@@ -1252,7 +1252,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   if (const std::size_t piece = hole.fragment_faces; piece > 0)
     report.reason += fmt::format(
         "; the loop is the whole border of a separate piece of {} face{} (a fragment, not a "
-        "hole in a surface): a patch would lie on the piece itself; delete the piece instead",
+        "hole in a surface): a patch would lie on the piece itself; delete the piece instead "
+        "(the fill's option to remove fragments does)",
         piece, piece == 1 ? "" : "s");
   return finish();
 }
@@ -1263,9 +1264,41 @@ std::vector<int> vertex_ids(const std::vector<VertexHandle>& vertices) {
   return ids;
 }
 
+//! FillOptions::remove_fragments: deletes the separate piece \p hole is the whole border of,
+//! with its vertices that no other face uses; an empty report when the piece (looked for again
+//! on the mesh as it is now) is no fragment.
+HoleFillReport remove_fragment(Mesh& mesh, const Hole& hole) {
+  const auto start = Clock::now();
+  HoleFillReport report;
+  report.hole_id = hole.id;
+  report.boundary_vertices = hole.loop.size();
+  report.removed_faces = fragment_piece(mesh, hole);
+  if (report.removed_faces.empty()) return report;
+  std::vector<VertexHandle> corners;
+  for (const FaceHandle f : report.removed_faces)
+    for (const VertexHandle v : mesh.fv_range(f)) corners.push_back(v);
+  std::sort(corners.begin(), corners.end());
+  corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+  // Isolated vertices go with the faces; a corner the piece shares with the surface (it
+  // touches it at a vertex) stays.
+  for (const FaceHandle f : report.removed_faces) mesh.delete_face(f, /*delete_isolated=*/true);
+  for (const VertexHandle v : corners)
+    if (mesh.status(v).deleted()) report.removed_vertices.push_back(v);
+  const std::size_t n = report.removed_faces.size();
+  report.reason = fmt::format(
+      "deleted the separate piece of {} face{} the loop bordered (a fragment, not a hole in a "
+      "surface)",
+      n, n == 1 ? "" : "s");
+  report.seconds = seconds_since(start);
+  return report;
+}
+
 //! fill_hole with the search reach kept across holes (the new faces are filed in it).
 HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
                                 SearchReach& reach) {
+  if (options.remove_fragments && hole.fragment_faces > 0)
+    if (HoleFillReport removed = remove_fragment(mesh, hole); removed.fragment_removed())
+      return removed;
   if (!hole.unfillable_reason.empty() || hole.pinched_at.empty())
     return fill_disk_hole(mesh, hole, options, reach);
   const auto start = Clock::now();
@@ -1335,7 +1368,13 @@ std::size_t FillReport::filled() const {
 
 std::size_t FillReport::left_open() const {
   return static_cast<std::size_t>(std::count_if(
-      holes.begin(), holes.end(), [](const HoleFillReport& h) { return !h.filled && !h.skipped; }));
+      holes.begin(), holes.end(),
+      [](const HoleFillReport& h) { return !h.filled && !h.skipped && !h.fragment_removed(); }));
+}
+
+std::size_t FillReport::fragments_removed() const {
+  return static_cast<std::size_t>(std::count_if(
+      holes.begin(), holes.end(), [](const HoleFillReport& h) { return h.fragment_removed(); }));
 }
 
 FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOptions& options,

@@ -89,6 +89,11 @@ struct FillOptions {
   //! Curves given by the caller (picked points) instead of detected ones: used by the
   //! CreaseSplit method whatever `sharp` says.
   std::optional<HoleCreasePlan> explicit_creases;
+  //! A selected hole whose loop is the whole border of a small separate piece
+  //! (Hole::fragment_faces: a lone triangle or a few faces of scan debris) is closed by deleting
+  //! that piece instead: no patch can close it (a patch would lie on the piece's back), and the
+  //! piece is no part of the surface. Off by default: the piece is the input's data.
+  bool remove_fragments = false;
 };
 
 struct HoleFillReport {
@@ -129,6 +134,12 @@ struct HoleFillReport {
   std::vector<std::string> warnings;
   std::vector<FaceHandle> new_faces;
   std::vector<VertexHandle> new_vertices;
+  //! FillOptions::remove_fragments: the fragment's faces deleted instead of a fill, and its
+  //! vertices that no other face used (deleted with them). The hole is then neither filled nor
+  //! left open: its loop is gone with the piece.
+  std::vector<FaceHandle> removed_faces;
+  std::vector<VertexHandle> removed_vertices;
+  bool fragment_removed() const { return !removed_faces.empty(); }
 };
 
 //! Fills one hole found by find_holes() on the current mesh. On failure the mesh is
@@ -155,7 +166,8 @@ struct FillReport {
   //! The per-mesh preparation (the longest edge; headroom in the arrays), in no hole's time.
   double prepare_seconds = 0;
   std::size_t filled() const;
-  std::size_t left_open() const;
+  std::size_t left_open() const;  //!< neither filled, skipped, nor closed by a fragment's removal
+  std::size_t fragments_removed() const;
 };
 
 //! Called after each hole with (holes done, holes selected); return false to stop early.

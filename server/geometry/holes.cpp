@@ -182,6 +182,10 @@ std::string out_of_range_reason(const Mesh& mesh, const Hole& hole) {
 }  // namespace
 
 std::size_t count_fragment_faces(const Mesh& mesh, const Hole& hole) {
+  return fragment_piece(mesh, hole).size();
+}
+
+std::vector<FaceHandle> fragment_piece(const Mesh& mesh, const Hole& hole) {
   const std::size_t limit = hole.loop.size();
   std::set<int> piece;
   std::vector<FaceHandle> stack;
@@ -191,7 +195,7 @@ std::size_t count_fragment_faces(const Mesh& mesh, const Hole& hole) {
   }
   std::size_t border = 0;
   while (!stack.empty()) {
-    if (piece.size() > limit) return 0;
+    if (piece.size() > limit) return {};
     const FaceHandle f = stack.back();
     stack.pop_back();
     for (const HalfedgeHandle h : mesh.fh_range(f)) {
@@ -202,7 +206,10 @@ std::size_t count_fragment_faces(const Mesh& mesh, const Hole& hole) {
         stack.push_back(g);
     }
   }
-  return piece.size() <= limit && border == hole.loop.size() ? piece.size() : 0;
+  if (piece.size() > limit || border != hole.loop.size()) return {};
+  std::vector<FaceHandle> faces;
+  for (const int f : piece) faces.emplace_back(f);  // a std::set: in index order
+  return faces;
 }
 
 HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) {

@@ -90,6 +90,10 @@ std::optional<NearestHole> find_nearest_hole(const Mesh& mesh, const std::vector
 //! 6 of the 19 holes left open (seeds 1-3) are such outlines, of one to four faces.
 std::size_t count_fragment_faces(const Mesh& mesh, const Hole& hole);
 
+//! The faces of that fragment (count_fragment_faces), in index order; empty when the piece
+//! \p hole borders is not one.
+std::vector<FaceHandle> fragment_piece(const Mesh& mesh, const Hole& hole);
+
 //! Recomputes the geometric properties of \p hole from its loop (used after edits).
 void compute_hole_properties(const Mesh& mesh, Hole& hole, bool compute_projectability);
 

@@ -128,6 +128,7 @@ geometry::FillOptions to_fill_options(const v1::FillOptions& options) {
     o.creases.crease_angle_deg = options.crease_angle_deg();
     o.creases.partner_angle_deg = std::min(o.creases.partner_angle_deg, options.crease_angle_deg());
   }
+  o.remove_fragments = options.remove_fragments();
   return o;
 }
 
@@ -158,6 +159,7 @@ void to_proto(const geometry::HoleFillReport& report, v1::HoleFillResult& out) {
   out.set_creases(report.creases);
   out.set_crease_curves(static_cast<std::uint32_t>(report.crease_curves));
   out.set_min_angle_deg(report.min_angle_deg);
+  out.set_fragment_faces_removed(static_cast<std::uint32_t>(report.removed_faces.size()));
 }
 
 Status export_document(const rpc::MeshDocument& document, geometry::MeshFormat format, bool binary,
@@ -405,10 +407,15 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
   for (const std::uint32_t id : report.unknown_ids) outcome.report.add_unknown_ids(doc_vertex(id));
   std::vector<VertexHandle> new_vertices;
   std::vector<FaceHandle> new_faces;
+  std::vector<FaceHandle> removed_faces;
+  std::vector<VertexHandle> removed_vertices;
   for (const auto& h : report.holes) {
     v1::HoleFillResult* r = outcome.report.add_holes();
     to_proto(h, *r);
     r->set_hole_id(doc_id_of_hole(h.hole_id));
+    removed_faces.insert(removed_faces.end(), h.removed_faces.begin(), h.removed_faces.end());
+    removed_vertices.insert(removed_vertices.end(), h.removed_vertices.begin(),
+                            h.removed_vertices.end());
     if (!h.filled) continue;
     for (const auto v : h.new_vertices) {
       if (!mesh_.status(v).deleted()) new_vertices.push_back(v);
@@ -418,6 +425,19 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
     }
   }
   outcome.delta = edit_delta(document, std::move(new_vertices), std::move(new_faces), first_free);
+  // Fragments deleted (FillOptions.remove_fragments): their document slots die with the edit.
+  for (const FaceHandle f : removed_faces) {
+    const auto i = static_cast<std::size_t>(f.idx());
+    if (i >= doc_of_mesh_face_.size() || doc_of_mesh_face_[i] == kNoId) continue;
+    outcome.delta.add_removed_faces(doc_of_mesh_face_[i]);
+    pending_removed_faces_.push_back(static_cast<std::uint32_t>(i));
+  }
+  for (const VertexHandle v : removed_vertices) {
+    const auto i = static_cast<std::size_t>(v.idx());
+    if (i >= doc_of_mesh_vertex_.size() || doc_of_mesh_vertex_[i] == kNoId) continue;
+    outcome.delta.add_removed_vertices(doc_of_mesh_vertex_[i]);
+    pending_removed_vertices_.push_back(static_cast<std::uint32_t>(i));
+  }
   return outcome;
 }
 
@@ -431,6 +451,8 @@ v1::MeshDelta SessionGeometry::edit_delta(const rpc::MeshDocument& document,
   delta.set_version(document.version + 1);
   pending_vertex_map_.clear();
   pending_face_map_.clear();
+  pending_removed_faces_.clear();
+  pending_removed_vertices_.clear();
   // Slot allocation: dead slots from first_free on (reused), then the end of the arrays.
   std::uint32_t next_vertex = std::min<std::uint32_t>(
       first_free.vertices, static_cast<std::uint32_t>(document.positions.size()));
@@ -1126,8 +1148,23 @@ void SessionGeometry::commit_pending() {
     if (mesh_of_doc_face_.size() <= doc_id) mesh_of_doc_face_.resize(doc_id + 1, kNoId);
     mesh_of_doc_face_[doc_id] = pending_face_map_[i];
   }
+  // Elements the edit deleted from the mesh (a removed fragment): their slots map to nothing.
+  for (const std::uint32_t mf : pending_removed_faces_) {
+    if (mf >= doc_of_mesh_face_.size()) continue;
+    if (const std::uint32_t doc = doc_of_mesh_face_[mf]; doc < mesh_of_doc_face_.size())
+      mesh_of_doc_face_[doc] = kNoId;
+    doc_of_mesh_face_[mf] = kNoId;
+  }
+  for (const std::uint32_t mv : pending_removed_vertices_) {
+    if (mv >= doc_of_mesh_vertex_.size()) continue;
+    if (const std::uint32_t doc = doc_of_mesh_vertex_[mv]; doc < mesh_of_doc_vertex_.size())
+      mesh_of_doc_vertex_[doc] = kNoId;
+    doc_of_mesh_vertex_[mv] = kNoId;
+  }
   pending_vertex_map_.clear();
   pending_face_map_.clear();
+  pending_removed_faces_.clear();
+  pending_removed_vertices_.clear();
   version_ = pending_version_;
   bound_growth();
 }

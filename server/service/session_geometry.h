@@ -205,6 +205,8 @@ class SessionGeometry {
   // The last fill, pending commit.
   std::vector<std::uint32_t> pending_vertex_map_;  // pairs mesh index, doc id
   std::vector<std::uint32_t> pending_face_map_;
+  std::vector<std::uint32_t> pending_removed_faces_;  // mesh indices the edit deleted
+  std::vector<std::uint32_t> pending_removed_vertices_;
   std::uint64_t pending_version_ = 0;
   std::optional<geometry::HoleSearchResult> holes_;
   //! Face handles at the last rebuild or compaction: undo, redo and failed fill attempts

@@ -256,6 +256,64 @@ TEST(Service, HoleListingMarksAFragmentsOutline) {
     EXPECT_EQ(h.fragment_faces(), h.boundary_edges() == 3 ? 1u : 0u) << h.id();
 }
 
+// A fill asked to remove fragments deletes the lone triangle through the server: the replica
+// follows, the listing loses the outline, undo brings the triangle back and redo removes it
+// again (the server's mesh cache follows both without a rebuild going wrong).
+TEST(Service, FillRemovesAFragmentAndUndoBringsItBack) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient client(channel);
+  const std::string session = make_session(
+      client, "debris",
+      testing::to_off(testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0})), "debris.off");
+  net::SessionReplica replica(client, session);
+  ASSERT_TRUE(replica.start().is_ok());
+  const std::size_t faces_before = replica.document().alive_faces();
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  ASSERT_EQ(holes.holes_size(), 2);
+  const auto outline = std::find_if(holes.holes().begin(), holes.holes().end(),
+                                    [](const v1::Hole& h) { return h.fragment_faces() == 1; });
+  ASSERT_NE(outline, holes.holes().end());
+  v1::FillHolesRequest request = fill_request(session, outline->id());
+  request.mutable_options()->set_remove_fragments(true);
+  v1::EditResponse removed;
+  const Status status = client.fill_holes(request, removed);
+  ASSERT_TRUE(status.is_ok()) << status.to_string();
+  ASSERT_EQ(removed.report().holes_size(), 1);
+  EXPECT_FALSE(removed.report().holes(0).filled());
+  EXPECT_EQ(removed.report().holes(0).fragment_faces_removed(), 1u)
+      << removed.report().holes(0).reason();
+  EXPECT_EQ(removed.delta().removed_faces_size(), 1);
+  EXPECT_EQ(removed.delta().removed_vertices_size(), 3);
+  ASSERT_TRUE(replica.wait_for_version(removed.version(), 10s).is_ok());
+  rpc::MeshDocument server_doc;
+  ASSERT_TRUE(client.download_document(session, server_doc).is_ok());
+  EXPECT_EQ(replica.document(), server_doc);
+  EXPECT_EQ(server_doc.alive_faces(), faces_before - 1);
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  ASSERT_EQ(holes.holes_size(), 1);
+  EXPECT_EQ(holes.holes(0).fragment_faces(), 0u);
+
+  v1::EditResponse undone;
+  ASSERT_TRUE(client.undo(session, undone).is_ok());
+  ASSERT_TRUE(replica.wait_for_version(undone.version(), 10s).is_ok());
+  EXPECT_EQ(replica.document().alive_faces(), faces_before);
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  ASSERT_EQ(holes.holes_size(), 2);
+  v1::EditResponse redone;
+  ASSERT_TRUE(client.redo(session, redone).is_ok());
+  ASSERT_TRUE(replica.wait_for_version(redone.version(), 10s).is_ok());
+  ASSERT_TRUE(client.download_document(session, server_doc).is_ok());
+  EXPECT_EQ(replica.document(), server_doc);
+  EXPECT_EQ(server_doc.alive_faces(), faces_before - 1);
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  EXPECT_EQ(holes.holes_size(), 1);
+}
+
 TEST(Service, ALongFillDoesNotBlockOtherSessions) {
   TempDir dir;
   ServerProcess server(dir.path(), {"--workers", "2"});
@@ -874,6 +932,25 @@ TEST(Service, CommandLineAgainstAServer) {
       << output;
   ASSERT_EQ(run_cli("fill " + sample + " --all -o " + local.string(), &output), 0) << output;
   EXPECT_EQ(read_binary_file(remote), read_binary_file(local));
+
+  // A fragment removed through the server gives the same file as in process.
+  const auto debris = dir.path() / "debris.off";
+  write_binary_file(debris,
+                    testing::to_off(testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0})));
+  const auto remote_clean = dir.path() / "remote-clean.off";
+  const auto local_clean = dir.path() / "local-clean.off";
+  ASSERT_EQ(run_cli(address + " fill " + debris.string() + " --all --remove-fragments -o " +
+                        remote_clean.string(),
+                    &output),
+            0)
+      << output;
+  EXPECT_NE(output.find("1 closed by removing a fragment"), std::string::npos) << output;
+  ASSERT_EQ(
+      run_cli("fill " + debris.string() + " --all --remove-fragments -o " + local_clean.string(),
+              &output),
+      0)
+      << output;
+  EXPECT_EQ(read_binary_file(remote_clean), read_binary_file(local_clean));
 
   const auto from_job = dir.path() / "job.off";
   ASSERT_EQ(

@@ -29,7 +29,8 @@ std::string check_fill_invariants(const Snapshot& before, const geometry::Mesh& 
   std::string problems;
   HalfedgeSet expected = before.boundary;
   for (const auto& r : reports) {
-    if (!r.filled) continue;
+    // A removed fragment takes its loop with it, as a fill does.
+    if (!r.filled && !r.fragment_removed()) continue;
     const geometry::Hole* hole = nullptr;
     for (const auto& h : holes_before)
       if (h.id == r.hole_id) hole = &h;
@@ -62,7 +63,8 @@ std::string check_fill_invariants(const Snapshot& before, const geometry::Mesh& 
   std::vector<geometry::FaceHandle> added;
   for (const auto& r : reports) added.insert(added.end(), r.new_faces.begin(), r.new_faces.end());
   // No degenerate new triangle (quality bounds proper are asserted per test).
-  const geometry::TriangleQuality quality = geometry::triangle_quality(geometry::face_triangles(after, added));
+  const geometry::TriangleQuality quality =
+      geometry::triangle_quality(geometry::face_triangles(after, added));
   if (!added.empty() && !(quality.min_angle_deg > 0.05))
     problems += fmt::format("a new face has a {:.3f} deg angle; ", quality.min_angle_deg);
   const auto hits = geometry::find_face_intersections(after, added, 5);

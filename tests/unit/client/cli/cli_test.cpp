@@ -406,6 +406,41 @@ TEST_F(Cli, HolesMarkTheOutlineOfALoneTriangle) {
   EXPECT_EQ(fragments, 1u);
 }
 
+// fill --remove-fragments deletes the lone triangle whose outline it cannot fill and says so;
+// without the flag the triangle stays and its outline is left open.
+TEST_F(Cli, FillRemovesAFragmentOnlyWhenAsked) {
+  const geometry::MeshSoup debris = testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0});
+  write("debris.off", testing::to_off(debris));
+  const CliRun kept = run("fill " + path("debris.off") + " -o " + path("kept.off") + " --all");
+  ASSERT_EQ(kept.code, 0) << kept.err;
+  EXPECT_NE(kept.out.find("filled 0 of 2 selected holes (2 left open, 0 skipped;"),
+            std::string::npos)
+      << kept.out;
+  EXPECT_EQ(geometry::read_mesh_file(path("kept.off")).soup.triangles.size(),
+            debris.triangles.size());
+  const CliRun removed =
+      run("fill " + path("debris.off") + " -o " + path("clean.off") + " --all --remove-fragments");
+  ASSERT_EQ(removed.code, 0) << removed.err;
+  EXPECT_NE(removed.out.find("removed: deleted the separate piece of 1 face"), std::string::npos)
+      << removed.out;
+  EXPECT_NE(removed.out.find("1 left open, 0 skipped, 1 closed by removing a fragment;"),
+            std::string::npos)
+      << removed.out;
+  const geometry::MeshSoup clean = geometry::read_mesh_file(path("clean.off")).soup;
+  EXPECT_EQ(clean.triangles.size(), debris.triangles.size() - 1);
+  EXPECT_EQ(clean.points.size(), debris.points.size() - 3);  // no unreferenced vertex written
+  const CliRun json = run("fill " + path("debris.off") + " -o " + path("clean.off") +
+                          " --all --remove-fragments --json");
+  ASSERT_EQ(json.code, 0) << json.err;
+  const auto report = nlohmann::json::parse(json.out);
+  EXPECT_EQ(report["fragments_removed"], 1);
+  EXPECT_EQ(report["left_open"], 1);
+  std::size_t faces_removed = 0;
+  for (const auto& h : report["holes"])
+    if (h.contains("faces_removed")) faces_removed += h["faces_removed"].get<std::size_t>();
+  EXPECT_EQ(faces_removed, 1u);
+}
+
 TEST_F(Cli, FillOneHoleByIdOrByPointLeavesTheOthers) {
   const CliRun holes = run("holes " + spot_ + " --json");
   const auto h = nlohmann::json::parse(holes.out)["holes"];

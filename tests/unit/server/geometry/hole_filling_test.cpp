@@ -319,6 +319,58 @@ TEST(FillHole, OutlineOfALoneTriangleSaysItBordersAFragment) {
   EXPECT_EQ(filled, 1u);  // the round hole around it is filled
 }
 
+// Asked to, the fill deletes the lone triangle whose outline it cannot fill, with its three
+// vertices; the round hole around it is filled as before and nothing else changes.
+TEST(FillHole, RemovingFragmentsDeletesTheLoneTriangleInstead) {
+  const MeshSoup s = testing::with_lone_triangle(testing::grid_with_round_hole(), {7.6, 7.7, 0.2});
+  FillOptions options;
+  options.remove_fragments = true;
+  const FillRun run = fill_and_check(s, options, [](const Hole& h) { return h.loop.size() < 60; });
+  ASSERT_EQ(run.reports.size(), 2u);
+  std::size_t removed = 0, filled = 0, new_faces = 0;
+  for (const HoleFillReport& r : run.reports) {
+    new_faces += r.new_faces.size();
+    if (r.filled) ++filled;
+    if (!r.fragment_removed()) continue;
+    ++removed;
+    EXPECT_FALSE(r.filled);
+    EXPECT_EQ(r.boundary_vertices, 3u);
+    EXPECT_EQ(r.removed_faces.size(), 1u);
+    EXPECT_EQ(r.removed_vertices.size(), 3u);
+    for (const VertexHandle v : r.removed_vertices) EXPECT_TRUE(run.mesh.status(v).deleted());
+    EXPECT_NE(r.reason.find("deleted the separate piece of 1 face"), std::string::npos) << r.reason;
+  }
+  EXPECT_EQ(removed, 1u);
+  EXPECT_EQ(filled, 1u);
+  Mesh after = run.mesh;
+  after.garbage_collection();
+  EXPECT_EQ(after.n_faces(), s.triangles.size() - 1 + new_faces);
+  EXPECT_EQ(after.n_vertices(), s.points.size() - 3 + run.reports[0].new_vertices.size() +
+                                    run.reports[1].new_vertices.size());
+  EXPECT_EQ(find_holes(after).holes.size(), 1u);  // the grid's own border
+}
+
+// Without the option the fragment stays (the input's data), and a larger piece is no fragment:
+// a loop around more faces than it has edges is left to the fill.
+TEST(FillHole, FragmentsAreRemovedOnlyWhenAskedAndOnlySmallOnes) {
+  const MeshSoup debris = testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0});
+  Mesh mesh = build_mesh(debris).mesh;
+  FillSelection all;
+  FillReport report = fill_holes(mesh, all, FillOptions{});
+  EXPECT_EQ(report.fragments_removed(), 0u);
+  EXPECT_EQ(report.left_open(), 2u);  // the triangle's outline and the grid's border
+  mesh.garbage_collection();
+  EXPECT_EQ(mesh.n_faces(), debris.triangles.size());
+  FillOptions remove;
+  remove.remove_fragments = true;
+  report = fill_holes(mesh, all, remove);
+  EXPECT_EQ(report.fragments_removed(), 1u);
+  EXPECT_EQ(report.left_open(), 1u);  // a grid of 32 faces is no fragment of its 16-edge border
+  mesh.garbage_collection();
+  EXPECT_EQ(mesh.n_faces(), debris.triangles.size() - 1);
+  EXPECT_EQ(mesh.n_vertices(), debris.points.size() - 3);
+}
+
 TEST(FillHole, ThreeEdgeHoleGetsOneTriangle) {
   MeshSoup s = testing::cube(2);
   s.triangles.erase(s.triangles.begin() + 5);
