@@ -241,6 +241,9 @@ void Station::request_fill(const Vec3& tool) {
   request.mutable_selection()->mutable_near()->set_x(on_boundary.x());
   request.mutable_selection()->mutable_near()->set_y(on_boundary.y());
   request.mutable_selection()->mutable_near()->set_z(on_boundary.z());
+  // A press on the outline of a loose fragment (a lone triangle, debris) closes it the only way
+  // it can be closed: the piece is deleted. The operator chose that loop; undo brings it back.
+  request.mutable_options()->set_remove_fragments(true);
   fills_.fetch_add(1);
   v1::EditResponse response;
   const Status s = client_.fill_holes(request, response);
@@ -250,10 +253,13 @@ void Station::request_fill(const Vec3& tool) {
   }
   std::string text = "fill:";
   for (const auto& h : response.report().holes())
-    text +=
-        fmt::format(" hole {} {}", h.hole_id(),
-                    h.filled() ? fmt::format("filled ({} faces, {})", h.faces_added(), h.shape())
-                               : "left open: " + h.reason());
+    text += fmt::format(
+        " hole {} {}", h.hole_id(),
+        h.filled() ? fmt::format("filled ({} faces, {})", h.faces_added(), h.shape())
+        : h.fragment_faces_removed() > 0
+            ? fmt::format("removed: a fragment of {} face{}", h.fragment_faces_removed(),
+                          h.fragment_faces_removed() == 1 ? "" : "s")
+            : "left open: " + h.reason());
   set_status(text);
 }
 

@@ -135,6 +135,52 @@ TEST(Station, ReplayPressesOnAHoleTheServerFillsItAndEveryoneAgrees) {
   EXPECT_GT(station.samples_acked(), 0u);  // batches reached the server
 }
 
+// A press on the outline of a lone triangle beside the surface deletes the triangle (the only
+// way to close that loop): the status says so, and the station's mesh is the server's.
+TEST(Station, PressOnAFragmentsOutlineRemovesIt) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  app::StationOptions options;
+  options.mesh_bytes = to_off(with_lone_triangle(grid(4, 4), {6, 1, 0.5}));
+  options.mesh_name = "debris.off";
+  app::Station station(server.connect(), options);
+  ASSERT_TRUE(station.start().is_ok());
+  const app::StationView before = station.view();
+  ASSERT_TRUE(before.holes && before.surface);
+  ASSERT_EQ(before.holes->size(), 2u);
+  const std::size_t faces_before = station.document().alive_faces();
+  // Onto the triangle's corner farthest from the grid, from beyond it.
+  const Vec3 corner(7, 1, 0.5);
+  const Eigen::AlignedBox3d model = app::bounds_of(station.document());
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  device::ReplayDevice replay(approach(map, corner + Vec3(2, 0, 1), corner, workspace), "fragment");
+  device::SafetyFilter safe(replay);
+  ASSERT_TRUE(safe.open().ok);
+  app::StationRuntime runtime(station, safe, app::loop_options_for(model, workspace));
+  runtime.start();
+  // The delta comes with the session stream, the status with the fill's answer: wait for both.
+  const std::uint64_t start_version = station.version();
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while ((station.version() == start_version || station.view().status.rfind("fill:", 0) != 0) &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(10ms);
+  runtime.stop();
+  safe.close();
+  const app::StationView after = station.view();
+  ASSERT_GT(station.version(), start_version) << "no edit arrived; status: " << after.status;
+  EXPECT_NE(after.status.find("removed: a fragment of 1 face"), std::string::npos) << after.status;
+  EXPECT_EQ(station.document().alive_faces(), faces_before - 1);
+  ASSERT_TRUE(after.holes);
+  EXPECT_EQ(after.holes->size(), 1u);
+  net::RepairClient check(server.connect());
+  rpc::MeshDocument server_document;
+  ASSERT_TRUE(check.download_document(station.session_id(), server_document).is_ok());
+  EXPECT_TRUE(station.document() == server_document);
+}
+
 TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {
   TempDir dir;
   ServerProcess server(dir.path());
