@@ -1180,11 +1180,13 @@ class Patch {
         for (const RingCorner& t : ring) {
           const Vec3 n = OpenMesh::cross(t.b - q, t.c - q);
           const double length = n.norm();
-          if (!(length > 0) || OpenMesh::dot(n, t.normal) < turn_cos_ * length) {
+          after = std::min(after, triangle_shape(q, t.b, t.c));
+          // Turned too far, or already no better than the best: the rest of the ring cannot
+          // make this position win.
+          if (!(length > 0) || OpenMesh::dot(n, t.normal) < turn_cos_ * length || !(after > best)) {
             valid = false;
             break;
           }
-          after = std::min(after, triangle_shape(q, t.b, t.c));
         }
         if (valid && after > best) {
           best = after;
