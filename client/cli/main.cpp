@@ -91,7 +91,8 @@ int main(int argc, char** argv) {
   fill_cmd
       ->add_option(
           "--shape", fill.shape,
-          "flat: keep the refined triangulation; fair: bi-Laplacian fairing that continues\n"
+          "flat: keep the refined triangulation (on curved surroundings its triangles are\n"
+          "mended across the triangulation's folds); fair: bi-Laplacian fairing that continues\n"
           "the surrounding surface (exactly, where it is a sphere or a quadric); auto: flat\n"
           "where the surroundings are planar or piecewise planar along creases (CAD), else\n"
           "fair (the report says why)")

@@ -933,12 +933,25 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     return *near_hole;
   };
   ShapeDecision decision;
+  // A flat patch asked for where the surroundings are curved (auto would fair it): its folds
+  // follow no surface, only the spanning triangulation over a bent rim, so the mending may flip
+  // across them as across a refused faired patch's stand-in (build_patch_surface). Measured
+  // 2026-11-26 with `--shape flat` on every cut of the overlapping-ball harness (seeds 1-3,
+  // 2,816 holes): holes with a triangle under 15° 1,963 -> 1,123 (those whose rim allows 15°:
+  // 1,526 -> 701); on the shared cases' 23 curved holes 9 more reach 15° (rocker-arm_sml #2
+  // 2.8 -> 20.1°, spot_sml #1 2.7 -> 20.3°), mean distances within -0.6/+0.4‰ (these flat
+  // patches lie 1-29‰ off the true surface). Flat surroundings (planar, or CAD faces between
+  // creases) keep their folds: there they are the rim's shape, and mending them moved fills
+  // away from the truth.
+  bool artefact_folds = false;
   if (options.shape == PatchShape::Auto) {
     decision = decide_shape(mesh, hole, options);
   } else {
     decision.shape = options.shape;
     decision.crease_regions = options.shape;
     decision.reason = "requested";
+    if (options.shape == PatchShape::Flat)
+      artefact_folds = decide_shape(mesh, hole, options).shape == PatchShape::Fair;
   }
   const PatchShape shape = decision.shape;
   const std::string& shape_reason = decision.reason;
@@ -1126,7 +1139,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       attempt.angles_closed = patch.angles_closed;
       std::string refused = build_patch_surface(
           mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces, fair,
-          pass == 1 || method == FillMethod::CreaseSplit, step.collapse_early, options, attempt);
+          pass == 1 || method == FillMethod::CreaseSplit || artefact_folds, step.collapse_early,
+          options, attempt);
       if (fair) last_bulge = attempt.fair_bulge;
       if (whole_hole_fairing(m, fair) &&
           attempt.fair_bulge > kClearBalloon * options.max_fair_bulge)
