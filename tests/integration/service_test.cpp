@@ -48,6 +48,16 @@ std::string make_session(RepairClient& client, const std::string& name = "test",
   return s.is_ok() ? info.session_id() : std::string();
 }
 
+//! A 4 x 4 grid and, apart from it, a lone triangle, as OFF.
+std::string debris_off() {
+  return testing::to_off(testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0}));
+}
+
+//! A session holding a 4 x 4 grid and, apart from it, a lone triangle (a fragment's outline).
+std::string make_debris_session(RepairClient& client) {
+  return make_session(client, "debris", debris_off(), "debris.off");
+}
+
 v1::FillHolesRequest fill_request(const std::string& session, std::uint32_t hole) {
   v1::FillHolesRequest r;
   r.set_session_id(session);
@@ -246,9 +256,7 @@ TEST(Service, HoleListingMarksAFragmentsOutline) {
   auto channel = server.connect();
   ASSERT_TRUE(channel);
   RepairClient client(channel);
-  const std::string session = make_session(
-      client, "debris",
-      testing::to_off(testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0})), "debris.off");
+  const std::string session = make_debris_session(client);
   v1::ListHolesResponse holes;
   ASSERT_TRUE(client.list_holes(session, holes).is_ok());
   ASSERT_EQ(holes.holes_size(), 2);
@@ -266,9 +274,7 @@ TEST(Service, FillRemovesAFragmentAndUndoBringsItBack) {
   auto channel = server.connect();
   ASSERT_TRUE(channel);
   RepairClient client(channel);
-  const std::string session = make_session(
-      client, "debris",
-      testing::to_off(testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0})), "debris.off");
+  const std::string session = make_debris_session(client);
   net::SessionReplica replica(client, session);
   ASSERT_TRUE(replica.start().is_ok());
   const std::size_t faces_before = replica.document().alive_faces();
@@ -935,8 +941,7 @@ TEST(Service, CommandLineAgainstAServer) {
 
   // A fragment removed through the server gives the same file as in process.
   const auto debris = dir.path() / "debris.off";
-  write_binary_file(debris,
-                    testing::to_off(testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0})));
+  write_binary_file(debris, debris_off());
   const auto remote_clean = dir.path() / "remote-clean.off";
   const auto local_clean = dir.path() / "local-clean.off";
   ASSERT_EQ(run_cli(address + " fill " + debris.string() + " --all --remove-fragments -o " +
