@@ -158,7 +158,8 @@ int main(int argc, char** argv) {
                  "Record the device's trajectory to FILE (replay it with --device replay:FILE)");
   cli.add_option(
          "--tool", a.tool,
-         "What the button does. fill: press near a highlighted hole to fill it.\n"
+         "What the button does. fill: press near a highlighted hole to fill it (on the\n"
+         "outline of a loose fragment, a lone triangle or debris, the fragment is deleted).\n"
          "sharp-edge: press at four points along a crease around a filled hole (P1, P2\n"
          "on one side, P2 nearest the hole; P3, P4 on the other; button 2 takes the last\n"
          "back), the server previews the Hermite curve and the guiding surface; press\n"
