@@ -5,7 +5,6 @@
 #include <cmath>
 #include <numeric>
 #include <optional>
-#include <set>
 #include <unordered_map>
 
 #include <fmt/format.h>

@@ -48,6 +48,17 @@ std::string make_session(RepairClient& client, const std::string& name = "test",
   return s.is_ok() ? info.session_id() : std::string();
 }
 
+//! The set-up of most tests here: a server started in its own temporary directory, and one
+//! client connected to it (check ready() before use).
+struct ServerWithClient {
+  TempDir dir;
+  ServerProcess server{dir.path()};
+  bool started = server.start();
+  std::shared_ptr<net::Channel> channel = started ? server.connect() : nullptr;
+  RepairClient client{channel};
+  bool ready() const { return started && channel != nullptr; }
+};
+
 //! A 4 x 4 grid and, apart from it, a lone triangle, as OFF.
 std::string debris_off() {
   return testing::to_off(testing::with_lone_triangle(testing::grid(4, 4), {10, 0, 0}));
@@ -207,12 +218,9 @@ TEST(Service, TwoClientsOnOneSessionSeeEachOthersEditsAndUndoRedo) {
 // the triangle across the pinch among the new faces, the same mesh at a subscriber, and undone
 // as one edit.
 TEST(Service, PinchedHoleIsListedFilledAndUndoneThroughTheServer) {
-  TempDir dir;
-  ServerProcess server(dir.path());
-  ASSERT_TRUE(server.start()) << server.log();
-  auto channel = server.connect();
-  ASSERT_TRUE(channel);
-  RepairClient client(channel);
+  ServerWithClient connected;
+  ASSERT_TRUE(connected.ready()) << connected.server.log();
+  RepairClient& client = connected.client;
   const std::string session = make_session(client, "pinched",
                                            testing::to_off(testing::cut_leaving_an_island(
                                                testing::uv_sphere(1, 48, 24), {0, 0.6, 0.8}, 0.45)),
@@ -250,12 +258,9 @@ TEST(Service, PinchedHoleIsListedFilledAndUndoneThroughTheServer) {
 
 // The outline of a lone triangle beside a grid is listed over the wire as a fragment's border.
 TEST(Service, HoleListingMarksAFragmentsOutline) {
-  TempDir dir;
-  ServerProcess server(dir.path());
-  ASSERT_TRUE(server.start()) << server.log();
-  auto channel = server.connect();
-  ASSERT_TRUE(channel);
-  RepairClient client(channel);
+  ServerWithClient connected;
+  ASSERT_TRUE(connected.ready()) << connected.server.log();
+  RepairClient& client = connected.client;
   const std::string session = make_debris_session(client);
   v1::ListHolesResponse holes;
   ASSERT_TRUE(client.list_holes(session, holes).is_ok());
@@ -268,12 +273,9 @@ TEST(Service, HoleListingMarksAFragmentsOutline) {
 // follows, the listing loses the outline, undo brings the triangle back and redo removes it
 // again (the server's mesh cache follows both without a rebuild going wrong).
 TEST(Service, FillRemovesAFragmentAndUndoBringsItBack) {
-  TempDir dir;
-  ServerProcess server(dir.path());
-  ASSERT_TRUE(server.start()) << server.log();
-  auto channel = server.connect();
-  ASSERT_TRUE(channel);
-  RepairClient client(channel);
+  ServerWithClient connected;
+  ASSERT_TRUE(connected.ready()) << connected.server.log();
+  RepairClient& client = connected.client;
   const std::string session = make_debris_session(client);
   net::SessionReplica replica(client, session);
   ASSERT_TRUE(replica.start().is_ok());
@@ -492,17 +494,15 @@ TEST(Service, MalformedFramesCloseOnlyThatConnection) {
 }
 
 TEST(Service, BadRequestsGetAStatusAndTheServerKeepsServing) {
-  TempDir dir;
-  ServerProcess server(dir.path());
-  ASSERT_TRUE(server.start()) << server.log();
-  auto channel = server.connect();
-  ASSERT_TRUE(channel);
-  RepairClient client(channel);
+  ServerWithClient connected;
+  ASSERT_TRUE(connected.ready()) << connected.server.log();
+  RepairClient& client = connected.client;
 
   // Unknown method.
   v1::HealthResponse out;
-  EXPECT_EQ(channel->unary("/touchmend.v1.Repair/NoSuchMethod", v1::HealthRequest(), out).code,
-            StatusCode::Unimplemented);
+  EXPECT_EQ(
+      connected.channel->unary("/touchmend.v1.Repair/NoSuchMethod", v1::HealthRequest(), out).code,
+      StatusCode::Unimplemented);
 
   v1::SessionInfo info;
   ASSERT_TRUE(client.create_session("bad input", info).is_ok());
@@ -544,7 +544,7 @@ TEST(Service, BadRequestsGetAStatusAndTheServerKeepsServing) {
 
   // An upload cut off halfway (the client disconnects): nothing is loaded.
   {
-    auto cut = server.connect();
+    auto cut = connected.server.connect();
     ASSERT_TRUE(cut);
     const std::string bytes = sample_mesh();
     v1::MeshChunk first;
@@ -566,15 +566,15 @@ TEST(Service, BadRequestsGetAStatusAndTheServerKeepsServing) {
     first.mutable_header()->set_total_bytes(bytes.size());
     first.set_data(bytes.substr(0, 100));
     std::promise<Status> done;
-    auto call = channel->start_call("UploadMesh", first.SerializeAsString(), true, 10s, nullptr,
-                                    [&done](Status st) { done.set_value(st); });
+    auto call = connected.channel->start_call("UploadMesh", first.SerializeAsString(), true, 10s,
+                                              nullptr, [&done](Status st) { done.set_value(st); });
     const Status cut_status = done.get_future().get();
     EXPECT_EQ(cut_status.code, StatusCode::InvalidArgument);
     EXPECT_NE(cut_status.message.find("cut off"), std::string::npos) << cut_status.message;
   }
   ASSERT_TRUE(client.open_session(session, info).is_ok());
   EXPECT_EQ(info.faces(), 0u);
-  EXPECT_TRUE(server_answers(server));
+  EXPECT_TRUE(server_answers(connected.server));
 }
 
 TEST(Service, TokensAndSessionAccess) {
