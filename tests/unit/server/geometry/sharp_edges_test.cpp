@@ -136,6 +136,47 @@ TEST(SharpEdges, HoleAtACornerMeetsAtTheCorner) {
   EXPECT_LT(crease_distance(mesh, r, edges), 1e-9);
 }
 
+// A cut below a cube's corner that leaves the corner on its rim (faces of the top and of a side
+// keep it, with the top edge between them): the vertical edge crosses the hole and ends at the
+// corner. The creases meet on the rim, not inside the hole, so no corner inside it fits (the
+// least-squares one is the rim vertex itself); the edge is a straight curve from its crossing
+// to the corner vertex, and the patch keeps it exactly (before, both crossings were left
+// unmatched and the plain fill cut the edge off).
+TEST(SharpEdges, CreaseEndingAtACornerOnTheRimIsSplitAlong) {
+  Mesh mesh = cube_with_hole(Vec3(kCube, kCube, kCube - 2.5), 2.05);
+  const auto holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 1u);
+  const Vec3 corner(kCube, kCube, kCube);
+  const HoleCreasePlan plan = plan_hole_creases(mesh, holes[0]);
+  ASSERT_EQ(plan.curves.size(), 1u) << plan.summary;
+  EXPECT_TRUE(plan.corners.empty());
+  EXPECT_TRUE(plan.unmatched.empty()) << plan.summary;
+  const CreaseCurve& curve = plan.curves[0];
+  ASSERT_TRUE(curve.to);
+  EXPECT_EQ(plan.crossings[*curve.to].position, corner);
+  EXPECT_EQ(plan.crossings[curve.from].position, Vec3(kCube, kCube, kCube - 4));
+  for (double t = 0; t <= 1.0; t += 0.1) {
+    const Vec3 q = curve.curve.at(t);
+    EXPECT_NEAR(q[0], kCube, 1e-9);
+    EXPECT_NEAR(q[1], kCube, 1e-9);
+  }
+
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  const FillReport report = fill_holes(mesh, {}, FillOptions{});
+  const HoleFillReport& r = report.holes.at(0);
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.pieces, 2u);
+  EXPECT_EQ(testing::check_fill_invariants(before, mesh, report.holes, holes), "");
+  const std::vector<std::array<Vec3, 2>> edge{{corner - Vec3(0, 0, 4), corner}};
+  EXPECT_LT(crease_distance(mesh, r, edge), 1e-9);
+  for (const FaceHandle f : r.new_faces) {
+    const Vec3 n = mesh.calc_face_normal(f);
+    EXPECT_NEAR(std::max(n[0], n[1]), 1.0, 1e-9) << "a patch face is on neither side";
+  }
+  EXPECT_GE(r.min_angle_deg, 15.0);
+}
+
 // Four bent creases (parabolas p + s·t + ½s²κ, as the plan continues them) that meet in pairs,
 // 20° apart, at two points: the two-corner plan puts its corners exactly there, not at one
 // corner of all four. From the tangent lines' meeting point (about 0.2 off) Gauss-Newton steps
