@@ -908,6 +908,23 @@ std::vector<std::size_t> end_at_rim_corners(HoleCreasePlan& plan, FaceNormals& n
         return true;
     return false;
   };
+  // Whether a curve of \p plan leaves loop vertex j within kMinCurveAngleDeg of the direction
+  // towards \p to: the two would bound a sliver of a region (fandisk: a pair that took a
+  // crease's crossing for a nearly parallel one's, 11.5° from the true crease).
+  constexpr double kMinCurveAngleDeg = 30.0;
+  const auto beside_a_curve = [&](std::size_t j, const Vec3& to) {
+    const Vec3 at = mesh.point(hole.loop[j]);
+    const Vec3 towards = Vec3(to - at).normalize_cond();
+    for (const CreaseCurve& c : plan.curves) {
+      if (!c.to) continue;
+      const CreaseCrossing& from = plan.crossings[c.from];
+      const CreaseCrossing& end = plan.crossings[*c.to];
+      if (from.loop_index != j && end.loop_index != j) continue;
+      const Vec3 other = from.loop_index == j ? end.position : from.position;
+      if (angle_between(towards, other - at) < kMinCurveAngleDeg * kDeg) return true;
+    }
+    return false;
+  };
   const auto crossing_at = [&](std::size_t j) -> std::optional<std::size_t> {
     for (std::size_t x = 0; x < plan.crossings.size(); ++x)
       if (plan.crossings[x].loop_index == j) return x;
@@ -934,7 +951,9 @@ std::vector<std::size_t> end_at_rim_corners(HoleCreasePlan& plan, FaceNormals& n
     // The first rim vertex the line meets must be the corner: a crease that passes a vertex
     // where no crease meets the rim crosses the hole there (or runs along the rim), and ends
     // at no corner.
-    if (!best || !on_crease(*best) || crosses_a_curve(ca.loop_index, *best)) continue;
+    if (!best || !on_crease(*best) || crosses_a_curve(ca.loop_index, *best) ||
+        beside_a_curve(*best, ca.position))
+      continue;
     const std::size_t j = *best;
     const Vec3 corner = mesh.point(hole.loop[j]);
     const Vec3 chord = corner - ca.position;
