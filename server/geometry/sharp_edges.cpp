@@ -1200,6 +1200,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     double score;
     std::size_t a, b;
     std::optional<CreaseArc> arc;  //!< set when the pair is joined by an arc, not a line
+    bool straight = false;         //!< joined by the chord itself (no fitted tangents)
     //! The pair's path across the hole: its arc sampled, or the chord its Hermite curve follows
     //! closely.
     std::vector<Vec3> path;
@@ -1221,6 +1222,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
                   a,
                   b,
                   std::nullopt,
+                  false,
                   {}};
       // A curved crease: the arc both creases bend along, if it agrees better than the chord.
       // A crease that followed the rim pairs only along an arc (below), from a smaller turn on
@@ -1238,7 +1240,12 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
       // A straight crease that leaves the rim crosses a notch to the opposite rim, where the
       // plain fill's rim-to-rim edge already lies on it (fandisk_sml #1); its fitted tangents
       // only add noise there.
-      if ((ca.rim_run > 0 || cb.rim_run > 0) && !c.arc) continue;
+      // Unless both tangents lie along the chord (a part's straight edge): then the chord is
+      // the crease, and the curve is the chord.
+      if ((ca.rim_run > 0 || cb.rim_run > 0) && !c.arc) {
+        if (c.score > options.rim_corner_angle_deg * kDeg) continue;
+        c.straight = true;
+      }
       if (c.arc) {
         for (int k = 0; k <= 16; ++k) c.path.push_back(c.arc->at(k / 16.0));
       } else {
@@ -1351,6 +1358,10 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     curve.from = p.a;
     curve.to = p.b;
     curve.points = {ca.far_point, ca.position, cb.position, cb.far_point};
+    if (p.straight) {
+      const Vec3 chord = cb.position - ca.position;
+      curve.points = {ca.position - chord, ca.position, cb.position, cb.position + chord};
+    }
     const HermiteCurveResult r = make_hermite_curve(curve.points, options.hermite, tolerance);
     if (!r.curve) continue;
     curve.curve = *r.curve;
