@@ -168,6 +168,13 @@ int main(int argc, char** argv) {
                "Fill each cut with one of six option sets drawn at random (defaults, --shape "
                "flat, --shape fair, --sharp off, --refine-iterations 1, 5) instead of the "
                "options given");
+  std::string only, save_dir;
+  app.add_option("--only", only,
+                 "Fill only this cut, as MESH:SEED:CUT (e.g. fandisk.obj:2:3; the others are "
+                 "still drawn, so the cut is the same)");
+  app.add_option("--save", save_dir,
+                 "Write each filled cut's holed mesh to this directory (MESH-sSEED-cCUT.off), to "
+                 "fill it again with the touchmend command line");
   app.add_flag("--per-hole", per_hole,
                "Also print one line per hole (for comparing two builds fill by fill)");
   CLI11_PARSE(app, argc, argv);
@@ -245,6 +252,8 @@ int main(int argc, char** argv) {
               break;
           }
         }
+        const std::string where = fmt::format("{} seed {} cut {}", name, seed, cut);
+        if (!only.empty() && only != fmt::format("{}:{}:{}", name, seed, cut)) continue;
         const auto in_cut = [&](const geo::Vec3& c) {
           return std::any_of(spheres.begin(), spheres.end(),
                              [&](const auto& s) { return (c - s.first).norm() < s.second; });
@@ -257,11 +266,17 @@ int main(int argc, char** argv) {
           if (in_cut((tp[0] + tp[1] + tp[2]) / 3.0)) removed.push_back(tp);
         }
         geo::Mesh mesh = geo::build_mesh(holed).mesh;
+        if (!save_dir.empty()) {
+          const std::string path = fmt::format("{}/{}-s{}-c{}.off", save_dir, name, seed, cut);
+          if (const geo::WriteResult w = geo::write_mesh_file(mesh, path); !w.ok) {
+            fmt::print(stderr, "cannot write {}: {}\n", path, w.error);
+            return 1;
+          }
+        }
         const std::vector<geo::Hole> holes = geo::find_holes(mesh).holes;
         const tmd::testing::Snapshot before = tmd::testing::take_snapshot(mesh);
         const geo::FillReport report = geo::fill_holes(mesh, {}, options);
         ++tally.cuts;
-        const std::string where = fmt::format("{} seed {} cut {}", name, seed, cut);
         if (const std::string problems =
                 tmd::testing::check_fill_invariants(before, mesh, report.holes, holes);
             !problems.empty()) {
