@@ -115,17 +115,24 @@ view::Scene make_scene(const app::StationView& v, const haptics::ToolState& tool
   return scene;
 }
 
+//! The status line's note on the highlighted hole: a loose fragment's outline says that a fill
+//! press deletes the fragment instead.
+std::string hole_under_tool(const app::HoleLoop& hole) {
+  if (hole.fragment_faces == 0) return fmt::format(" (hole {} under the tool)", hole.id);
+  return fmt::format(
+      " (hole {} under the tool: the outline of a loose fragment of {} face{}, a fill press "
+      "deletes it)",
+      hole.id, hole.fragment_faces, hole.fragment_faces == 1 ? "" : "s");
+}
+
 std::string status_line(const app::StationView& v, const haptics::HapticLoop& loop,
                         const device::SafetyFilter& safe) {
   const haptics::LoopStats s = loop.stats();
   return fmt::format(
       "session {} v{} | {} | {} holes{} | loop {} ticks, period error p99 {:.0f} us | {} | {}",
       v.session_id, v.version, v.tool, v.holes ? v.holes->size() : 0,
-      v.highlighted >= 0
-          ? fmt::format(" (hole {} under the tool)", (*v.holes)[std::size_t(v.highlighted)].id)
-          : "",
-      s.ticks, loop.period_error().percentile_us(0.99), device::to_string(safe.arm_state()),
-      v.status);
+      v.highlighted >= 0 ? hole_under_tool((*v.holes)[std::size_t(v.highlighted)]) : "", s.ticks,
+      loop.period_error().percentile_us(0.99), device::to_string(safe.arm_state()), v.status);
 }
 
 }  // namespace
@@ -159,7 +166,8 @@ int main(int argc, char** argv) {
   cli.add_option(
          "--tool", a.tool,
          "What the button does. fill: press near a highlighted hole to fill it (on the\n"
-         "outline of a loose fragment, a lone triangle or debris, the fragment is deleted).\n"
+         "outline of a loose fragment, a lone triangle or debris, the fragment is deleted;\n"
+         "the status line says so while the tool is on such an outline).\n"
          "sharp-edge: press at four points along a crease around a filled hole (P1, P2\n"
          "on one side, P2 nearest the hole; P3, P4 on the other; button 2 takes the last\n"
          "back), the server previews the Hermite curve and the guiding surface; press\n"

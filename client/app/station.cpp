@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <unordered_map>
+#include <unordered_set>
 
 #include <fmt/format.h>
 
@@ -24,18 +25,51 @@ Vec3 closest_on_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
   return a + t * ab;
 }
 
+//! The faces of the piece the loop \p loop borders, if the loop is that piece's whole border and
+//! the piece has no more faces than the loop has edges (as the server's fragment_piece), else 0.
+//! \p directed: each directed triangle edge (key a << 32 | b) to its triangle.
+std::size_t fragment_faces(const haptics::SurfaceMesh& mesh,
+                           const std::unordered_map<std::uint64_t, std::uint32_t>& directed,
+                           const std::vector<std::uint32_t>& loop) {
+  const auto key = [](std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; };
+  const std::size_t limit = loop.size();
+  std::unordered_set<std::uint32_t> piece;
+  std::vector<std::uint32_t> stack;
+  for (std::size_t i = 0; i < loop.size(); ++i) {
+    // The loop runs v_i -> v_i+1 along the reversed boundary edge (v_i+1, v_i) of a triangle.
+    const auto it = directed.find(key(loop[(i + 1) % loop.size()], loop[i]));
+    if (it != directed.end() && piece.insert(it->second).second) stack.push_back(it->second);
+  }
+  std::size_t border = 0;
+  while (!stack.empty()) {
+    if (piece.size() > limit) return 0;
+    const auto& t = mesh.triangles[stack.back()];
+    stack.pop_back();
+    for (int k = 0; k < 3; ++k) {
+      const auto twin = directed.find(key(t[(k + 1) % 3], t[k]));
+      if (twin == directed.end())
+        ++border;
+      else if (piece.insert(twin->second).second)
+        stack.push_back(twin->second);
+    }
+  }
+  return piece.size() <= limit && border == loop.size() ? piece.size() : 0;
+}
+
 }  // namespace
 
 std::vector<HoleLoop> find_boundary_loops(const haptics::SurfaceMesh& mesh) {
-  // Directed edges of all triangles; a boundary edge (a, b) has no twin (b, a). The hole
-  // runs along the reversed boundary edges.
-  std::unordered_map<std::uint64_t, int> directed;
+  // Directed edges of all triangles, each with its triangle; a boundary edge (a, b) has no twin
+  // (b, a). The hole runs along the reversed boundary edges.
+  std::unordered_map<std::uint64_t, std::uint32_t> directed;
   directed.reserve(mesh.triangles.size() * 3);
   const auto key = [](std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; };
-  for (const auto& t : mesh.triangles)
-    for (int k = 0; k < 3; ++k) ++directed[key(t[k], t[(k + 1) % 3])];
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    const auto& t = mesh.triangles[f];
+    for (int k = 0; k < 3; ++k) directed.emplace(key(t[k], t[(k + 1) % 3]), std::uint32_t(f));
+  }
   std::unordered_multimap<std::uint32_t, std::uint32_t> next;  // along the hole: b -> a
-  for (const auto& [k, count] : directed) {
+  for (const auto& [k, face] : directed) {
     const auto a = static_cast<std::uint32_t>(k >> 32), b = static_cast<std::uint32_t>(k);
     if (!directed.contains(key(b, a))) next.emplace(b, a);
   }
@@ -58,6 +92,7 @@ std::vector<HoleLoop> find_boundary_loops(const haptics::SurfaceMesh& mesh) {
     loop.id = *std::min_element(loop.vertices.begin(), loop.vertices.end());
     for (const auto u : loop.vertices) loop.centroid += mesh.positions[u];
     loop.centroid /= double(loop.vertices.size());
+    loop.fragment_faces = fragment_faces(mesh, directed, loop.vertices);
     loops.push_back(std::move(loop));
   }
   std::sort(loops.begin(), loops.end(),

@@ -34,9 +34,13 @@ struct HoleLoop {
   std::uint32_t id = 0;  //!< smallest vertex id on the loop (the server's hole id)
   std::vector<std::uint32_t> vertices;
   Vec3 centroid = Vec3::Zero();
+  //! The loop is the whole border of a separate piece of this many faces, no more than the loop
+  //! has edges (a loose fragment: a fill press deletes it), or 0. The server's Hole.fragment_faces.
+  std::size_t fragment_faces = 0;
 };
 
-//! Boundary loops of a surface: directed edges without their reverse, chained.
+//! Boundary loops of a surface: directed edges without their reverse, chained; each with its
+//! fragment piece, if it borders one.
 std::vector<HoleLoop> find_boundary_loops(const haptics::SurfaceMesh& mesh);
 
 //! The client's copy of the document as a surface (alive faces only).

@@ -688,6 +688,71 @@ int run_client_under_xvfb(const ServerProcess& server, const std::string& sessio
       out);
 }
 
+// The station marks a loose fragment's outline as the server's hole listing does: the lone
+// triangle's loop borders a piece of 1 face; the grid's border loop borders the whole grid (32
+// faces, more than its 16 edges), and a hole cut into the grid borders no separate piece at all.
+TEST(Station, BoundaryLoopsMarkALooseFragmentsOutline) {
+  const auto loops_of = [](const geometry::MeshSoup& soup) {
+    haptics::SurfaceMesh surface;
+    for (const auto& p : soup.points) surface.positions.emplace_back(p[0], p[1], p[2]);
+    for (const auto& t : soup.triangles) surface.triangles.push_back({t[0], t[1], t[2]});
+    return app::find_boundary_loops(surface);
+  };
+  const auto debris = loops_of(with_lone_triangle(grid(4, 4), {6, 1, 0.5}));
+  ASSERT_EQ(debris.size(), 2u);
+  std::vector<std::size_t> marked;
+  for (const app::HoleLoop& loop : debris) marked.push_back(loop.fragment_faces);
+  std::sort(marked.begin(), marked.end());
+  EXPECT_EQ(marked, (std::vector<std::size_t>{0, 1}));
+  const auto holed = loops_of(testing::remove_faces(grid(6, 6), [](const geometry::Vec3& c) {
+    return (c - geometry::Vec3(3, 3, 0)).norm() < 1.2;
+  }));
+  ASSERT_EQ(holed.size(), 2u);
+  for (const app::HoleLoop& loop : holed) EXPECT_EQ(loop.fragment_faces, 0u);
+}
+
+// With the tool resting on a lone triangle's corner, the headless client's status line says a
+// press there deletes the fragment (no press is made: the mesh stays as it was).
+TEST(ClientBinary, StatusLineSaysTheHoleUnderTheToolIsAFragmentsOutline) {
+  TempDir dir;
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  net::RepairClient client(server.connect());
+  v1::SessionInfo info;
+  ASSERT_TRUE(client.create_session("fragment", info).is_ok());
+  v1::LoadMeshResponse loaded;
+  ASSERT_TRUE(client
+                  .upload_mesh(info.session_id(),
+                               to_off(with_lone_triangle(grid(4, 4), {6, 1, 0.5})), v1::OFF,
+                               "debris.off", loaded)
+                  .is_ok());
+  rpc::MeshDocument document;
+  ASSERT_TRUE(client.download_document(info.session_id(), document).is_ok());
+  const Eigen::AlignedBox3d model = app::bounds_of(document);
+  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
+                                      Eigen::Vector3d::Constant(0.1));
+  const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
+  device::Trajectory t;
+  t.workspace = workspace;
+  for (int i = 0; i <= 300; ++i) t.samples.push_back({i * 0.01, map.to_device(Vec3(7, 1, 0.5)), 0});
+  const auto traj = dir.path() / "park.traj";
+  ASSERT_TRUE(device::write_trajectory(traj, t).ok);
+  std::string out;
+  ASSERT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --server 127.0.0.1:" +
+                    std::to_string(server.port()) + " --session " + info.session_id() +
+                    " --device replay:" + traj.string() + " --headless --stats --duration 2",
+                out),
+            0)
+      << out;
+  EXPECT_NE(out.find("under the tool: the outline of a loose fragment of 1 face, a fill press "
+                     "deletes it"),
+            std::string::npos)
+      << out;
+  rpc::MeshDocument after;
+  ASSERT_TRUE(client.download_document(info.session_id(), after).is_ok());
+  EXPECT_EQ(after.version, document.version);
+}
+
 TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
   // deploy/install-deps.sh installs Xvfb: its absence is a broken set-up, not a reason to pass.
   ASSERT_EQ(std::system("command -v xvfb-run > /dev/null 2>&1"), 0) << "xvfb-run is not installed";
