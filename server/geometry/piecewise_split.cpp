@@ -238,80 +238,101 @@ class PiecewiseFiller {
       std::size_t i, j;
     };
     std::vector<Candidate> candidates;
-    // Candidates: for each vertex its nearest loop vertices in 3D among those at least a
-    // tenth of the loop away (the nearest ones otherwise are always its loop neighbours,
-    // whose chords only shave off tiny ears).
-    const std::size_t min_gap = std::max<std::size_t>(2, n / 10);
-    std::vector<std::pair<double, std::size_t>> nearest;
-    for (std::size_t i = 0; i < n; ++i) {
-      nearest.clear();
-      const Vec3& pi = pool_[static_cast<std::size_t>(loop[i])];
-      for (std::size_t j = 0; j < n; ++j) {
-        const std::size_t gap = j >= i ? j - i : j + n - i;  // (j - i) mod n, no division
-        if (gap < min_gap || gap > n - min_gap) continue;
-        nearest.emplace_back((pool_[static_cast<std::size_t>(loop[j])] - pi).sqrnorm(), j);
-      }
-      const std::size_t keep = std::min(opt_.candidates_per_vertex, nearest.size());
-      std::partial_sort(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(keep),
-                        nearest.end());
-      for (std::size_t c = 0; c < keep; ++c) {
-        const std::size_t j = nearest[c].second;
-        if (j < i) continue;  // each pair once
-        const double len = std::sqrt(nearest[c].first);
-        const double arc_ij = arc[j] - arc[i];
-        const double shorter = std::min(arc_ij, total - arc_ij);
-        if (!(len < shorter)) continue;  // must shorten both halves
-        candidates.push_back({len / shorter, i, j});
-      }
-    }
-    // The flatness penalty needs an eigen-solve per half: only for the best chords by length.
-    constexpr std::size_t kScored = 32;
-    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-      return a.cost < b.cost || (a.cost == b.cost && std::tie(a.i, a.j) < std::tie(b.i, b.j));
-    });
-    if (candidates.size() > kScored) candidates.resize(kScored);
-    std::vector<Vec3> h1, h2;
-    for (Candidate& c : candidates) {
-      h1.clear();
-      h2.clear();
-      for (std::size_t k = c.i; k <= c.j; ++k)
-        h1.push_back(pool_[static_cast<std::size_t>(loop[k])]);
-      for (std::size_t k = c.j; k != c.i; k = (k + 1) % n)
-        h2.push_back(pool_[static_cast<std::size_t>(loop[k])]);
-      h2.push_back(pool_[static_cast<std::size_t>(loop[c.i])]);
-      c.cost += flatness_penalty(h1) + flatness_penalty(h2);
-    }
-    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-      return a.cost < b.cost || (a.cost == b.cost && std::tie(a.i, a.j) < std::tie(b.i, b.j));
-    });
-    // The first valid candidate whose halves are both simple wins; else the best valid one.
-    // Halves are tested without their chord points: those lie on the straight chord, which
-    // projects to the same segment.
-    const Candidate* chosen = nullptr;
+    std::optional<Candidate> chosen;
     std::optional<std::array<ReferenceFrame, 2>> chosen_frames;
-    int valid_seen = 0;
-    for (const Candidate& c : candidates) {
+    // A chord that may split the loop: not an edge yet, entering the hole at both ends, clear
+    // of the mesh.
+    const auto valid = [&](const Candidate& c) {
       const int a = loop[c.i], b = loop[c.j];
-      if (used_.count(undirected(a, b))) continue;
-      if (!chord_enters_hole(loop, c.i, c.j) || !chord_enters_hole(loop, c.j, c.i)) continue;
-      const Vec3& pa = pool_[static_cast<std::size_t>(a)];
-      const Vec3& pb = pool_[static_cast<std::size_t>(b)];
-      if (in_.chord_clearance && in_.chord_clearance(a, b, pa, pb) < 0.25 * in_.mean_edge_length)
-        continue;
-      if (!chosen) chosen = &c;
-      std::vector<int> half1(loop.begin() + static_cast<std::ptrdiff_t>(c.i),
-                             loop.begin() + static_cast<std::ptrdiff_t>(c.j) + 1);
-      std::vector<int> half2;
-      for (std::size_t k = c.j; k != c.i; k = (k + 1) % n) half2.push_back(loop[k]);
-      half2.push_back(a);
-      std::array<ReferenceFrame, 2> frames;
-      if (find_simple_frame(half1, frames[0]) && find_simple_frame(half2, frames[1])) {
-        chosen = &c;
-        chosen_frames = frames;
-        break;
+      if (used_.count(undirected(a, b))) return false;
+      if (!chord_enters_hole(loop, c.i, c.j) || !chord_enters_hole(loop, c.j, c.i)) return false;
+      return !in_.chord_clearance ||
+             in_.chord_clearance(a, b, pool_[static_cast<std::size_t>(a)],
+                                 pool_[static_cast<std::size_t>(b)]) >= 0.25 * in_.mean_edge_length;
+    };
+    // \p wide: the invalid chords are dropped before the best by length are scored (a loop whose
+    // shortest chords all cross the mesh has hundreds of them, which would fill the scored list).
+    const auto choose = [&](std::size_t per_vertex, bool wide) {
+      candidates.clear();
+      // Candidates: for each vertex its nearest loop vertices in 3D among those at least a
+      // tenth of the loop away (the nearest ones otherwise are always its loop neighbours,
+      // whose chords only shave off tiny ears).
+      const std::size_t min_gap = std::max<std::size_t>(2, n / 10);
+      std::vector<std::pair<double, std::size_t>> nearest;
+      for (std::size_t i = 0; i < n; ++i) {
+        nearest.clear();
+        const Vec3& pi = pool_[static_cast<std::size_t>(loop[i])];
+        for (std::size_t j = 0; j < n; ++j) {
+          const std::size_t gap = j >= i ? j - i : j + n - i;  // (j - i) mod n, no division
+          if (gap < min_gap || gap > n - min_gap) continue;
+          nearest.emplace_back((pool_[static_cast<std::size_t>(loop[j])] - pi).sqrnorm(), j);
+        }
+        const std::size_t keep = std::min(per_vertex, nearest.size());
+        std::partial_sort(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(keep),
+                          nearest.end());
+        for (std::size_t c = 0; c < keep; ++c) {
+          const std::size_t j = nearest[c].second;
+          if (j < i) continue;  // each pair once
+          const double len = std::sqrt(nearest[c].first);
+          const double arc_ij = arc[j] - arc[i];
+          const double shorter = std::min(arc_ij, total - arc_ij);
+          if (!(len < shorter)) continue;  // must shorten both halves
+          candidates.push_back({len / shorter, i, j});
+        }
       }
-      if (++valid_seen >= 5) break;
-    }
+      if (wide) std::erase_if(candidates, [&](const Candidate& c) { return !valid(c); });
+      // The flatness penalty needs an eigen-solve per half: only for the best chords by length.
+      constexpr std::size_t kScored = 32;
+      std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+        return a.cost < b.cost || (a.cost == b.cost && std::tie(a.i, a.j) < std::tie(b.i, b.j));
+      });
+      if (candidates.size() > kScored) candidates.resize(kScored);
+      std::vector<Vec3> h1, h2;
+      for (Candidate& c : candidates) {
+        h1.clear();
+        h2.clear();
+        for (std::size_t k = c.i; k <= c.j; ++k)
+          h1.push_back(pool_[static_cast<std::size_t>(loop[k])]);
+        for (std::size_t k = c.j; k != c.i; k = (k + 1) % n)
+          h2.push_back(pool_[static_cast<std::size_t>(loop[k])]);
+        h2.push_back(pool_[static_cast<std::size_t>(loop[c.i])]);
+        c.cost += flatness_penalty(h1) + flatness_penalty(h2);
+      }
+      std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+        return a.cost < b.cost || (a.cost == b.cost && std::tie(a.i, a.j) < std::tie(b.i, b.j));
+      });
+      // The first valid candidate whose halves are both simple wins; else the best valid one.
+      // Halves are tested without their chord points: those lie on the straight chord, which
+      // projects to the same segment.
+      chosen.reset();
+      chosen_frames.reset();
+      int valid_seen = 0;
+      for (const Candidate& c : candidates) {
+        if (!wide && !valid(c)) continue;
+        const int a = loop[c.i];
+        if (!chosen) chosen = c;
+        std::vector<int> half1(loop.begin() + static_cast<std::ptrdiff_t>(c.i),
+                               loop.begin() + static_cast<std::ptrdiff_t>(c.j) + 1);
+        std::vector<int> half2;
+        for (std::size_t k = c.j; k != c.i; k = (k + 1) % n) half2.push_back(loop[k]);
+        half2.push_back(a);
+        std::array<ReferenceFrame, 2> frames;
+        if (find_simple_frame(half1, frames[0]) && find_simple_frame(half2, frames[1])) {
+          chosen = c;
+          chosen_frames = frames;
+          break;
+        }
+        if (++valid_seen >= 5) break;
+      }
+    };
+    choose(opt_.candidates_per_vertex, false);
+    // None of the nearest few is clear of the mesh and enters the hole at both ends (a long
+    // hole around a body, whose nearest vertices lie across it), and the piece is too large for
+    // the 3D triangulation that closes unsplit pieces: a wider search (a 437-edge cut around the
+    // shark's body, left open before, then closes). Smaller pieces keep going to the DP.
+    if (!chosen && n > opt_.max_dp_vertices &&
+        opt_.wide_candidates_per_vertex > opt_.candidates_per_vertex)
+      choose(opt_.wide_candidates_per_vertex, true);
     if (!chosen) return false;
     halves = make_halves(piece, chosen->i, chosen->j);
     if (chosen_frames) {

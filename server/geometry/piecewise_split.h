@@ -42,6 +42,9 @@ struct PiecewiseInput {
 struct PiecewiseOptions {
   int max_depth = 64;
   std::size_t candidates_per_vertex = 8;
+  //! When none of those gives a valid chord and the piece has more than max_dp_vertices (no
+  //! DP can close it unsplit), the search is repeated with this many.
+  std::size_t wide_candidates_per_vertex = 32;
   std::size_t max_dp_vertices = 400;  //!< tiny or unsplittable pieces go to the 3D DP
   PlanarTriangulationOptions planar;
 };
