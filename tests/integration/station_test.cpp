@@ -44,6 +44,19 @@ const std::filesystem::path kCase =
 
 //! A trajectory (device frame) that comes from outside to `target`, presses button 1 there,
 //! releases and stays.
+//! The device workspace of every replay here: a cube 0.2 across around the origin.
+const Eigen::AlignedBox3d kWorkspace(Eigen::Vector3d::Constant(-0.1),
+                                     Eigen::Vector3d::Constant(0.1));
+
+//! \p seconds of the tool held still at \p target (a model point), the button up.
+device::Trajectory park(const haptics::WorkspaceMap& map, const Vec3& target, double seconds) {
+  device::Trajectory t;
+  t.workspace = kWorkspace;
+  for (int i = 0; i <= static_cast<int>(seconds * 100); ++i)
+    t.samples.push_back({i * 0.01, map.to_device(target), 0});
+  return t;
+}
+
 device::Trajectory approach(const haptics::WorkspaceMap& map, const Vec3& outside,
                             const Vec3& target, const Eigen::AlignedBox3d& workspace) {
   device::Trajectory t;
@@ -90,8 +103,7 @@ TEST(Station, ReplayPressesOnAHoleTheServerFillsItAndEveryoneAgrees) {
   const Vec3 rim = before.surface->positions[hole.vertices.front()];
   const Eigen::AlignedBox3d model = app::bounds_of(station.document());
   const Vec3 outward = (rim - model.center()).normalized();
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d& workspace = kWorkspace;
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
   device::ReplayDevice replay(
       approach(map, rim + 0.3 * model.diagonal().norm() * outward, rim, workspace), "approach");
@@ -153,8 +165,7 @@ TEST(Station, PressOnAFragmentsOutlineRemovesIt) {
   // Onto the triangle's corner farthest from the grid, from beyond it.
   const Vec3 corner(7, 1, 0.5);
   const Eigen::AlignedBox3d model = app::bounds_of(station.document());
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d& workspace = kWorkspace;
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
   device::ReplayDevice replay(approach(map, corner + Vec3(2, 0, 1), corner, workspace), "fragment");
   device::SafetyFilter safe(replay);
@@ -200,8 +211,7 @@ TEST(Station, ConnectionLossKeepsTheSurfaceUnderTheToolAndResumes) {
   ASSERT_TRUE(whole.first_hit(above, model.center(), top));
   const Vec3 spot = top.point;
   const Vec3 inward = -Vec3::UnitY();
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d& workspace = kWorkspace;
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
   device::SimulatedOptions so;
   so.start = map.to_device(spot - 0.1 * model.diagonal().norm() * inward);
@@ -354,7 +364,7 @@ struct CubeEdgeStation {
   v1::EditResponse filled;
   std::unique_ptr<app::Station> station;
   Eigen::AlignedBox3d model;
-  Eigen::AlignedBox3d workspace{Eigen::Vector3d::Constant(-0.1), Eigen::Vector3d::Constant(0.1)};
+  Eigen::AlignedBox3d workspace = kWorkspace;
   haptics::WorkspaceMap map;
 };
 
@@ -433,8 +443,7 @@ TEST(Station, ReplayedStitchDragCreatesTheTriangle) {
   EXPECT_EQ(station.view().tool, "stitch");
   const std::uint64_t start_version = station.version();
   const Eigen::AlignedBox3d model = app::bounds_of(station.document());
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d& workspace = kWorkspace;
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
   // Above the plates (no contact needed to pick): press near the left plate's edge x = 4,
   // 0 < y < 1, drag across the gap to the right plate's corner (4.5, 0), release.
@@ -729,14 +738,10 @@ TEST(ClientBinary, StatusLineSaysTheHoleUnderTheToolIsAFragmentsOutline) {
   rpc::MeshDocument document;
   ASSERT_TRUE(client.download_document(info.session_id(), document).is_ok());
   const Eigen::AlignedBox3d model = app::bounds_of(document);
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d& workspace = kWorkspace;
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
-  device::Trajectory t;
-  t.workspace = workspace;
-  for (int i = 0; i <= 300; ++i) t.samples.push_back({i * 0.01, map.to_device(Vec3(7, 1, 0.5)), 0});
   const auto traj = dir.path() / "park.traj";
-  ASSERT_TRUE(device::write_trajectory(traj, t).ok);
+  ASSERT_TRUE(device::write_trajectory(traj, park(map, Vec3(7, 1, 0.5), 3.0)).ok);
   std::string out;
   ASSERT_EQ(run(std::string(TOUCHMEND_CLIENT_PATH) + " --server 127.0.0.1:" +
                     std::to_string(server.port()) + " --session " + info.session_id() +
@@ -774,14 +779,10 @@ TEST(ClientBinary, ViewerDrawsTheMeshAndTheHighlightedHoleUnderXvfb) {
   ASSERT_FALSE(loops.empty());
   const Vec3 rim = surface->positions[loops.front().vertices.front()];
   const Eigen::AlignedBox3d model = app::bounds_of(document);
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d& workspace = kWorkspace;
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
-  device::Trajectory t;
-  t.workspace = workspace;
-  for (int i = 0; i <= 100; ++i) t.samples.push_back({i * 0.01, map.to_device(rim), 0});
   const auto traj = dir.path() / "park.traj";
-  ASSERT_TRUE(device::write_trajectory(traj, t).ok);
+  ASSERT_TRUE(device::write_trajectory(traj, park(map, rim, 1.0)).ok);
   const auto png = dir.path() / "frame.png";
   std::string out;
   const int rc = run_client_under_xvfb(
@@ -846,8 +847,7 @@ TEST(ClientBinary, SharpEdgePicksAreDrawnNumberedWithThePreviewedCurveUnderXvfb)
   rpc::MeshDocument document;
   ASSERT_TRUE(client.download_document(info.session_id(), document).is_ok());
   const Eigen::AlignedBox3d model = app::bounds_of(document);
-  const Eigen::AlignedBox3d workspace(Eigen::Vector3d::Constant(-0.1),
-                                      Eigen::Vector3d::Constant(0.1));
+  const Eigen::AlignedBox3d& workspace = kWorkspace;
   const haptics::WorkspaceMap map = haptics::WorkspaceMap::fit(model, workspace);
   // Four picks along the edge x = z = 8, then the tool parks far outside (out of the picture's
   // colours' way) while the preview is drawn.
