@@ -320,8 +320,9 @@ int main(int argc, char** argv) {
               if (rim_allows) ++tally.under_15_rim_allows;
             }
             tally.ms.push_back(1e3 * r.seconds);
-            line += fmt::format("{}/{} min {:.2f}° faces {}", geo::to_string(r.method),
-                                geo::to_string(r.shape), angle, r.new_faces.size());
+            line += fmt::format(
+                "{}/{} min {:.2f}°{} faces {}", geo::to_string(r.method), geo::to_string(r.shape),
+                angle, angle < 15.0 && rim_allows ? " (rim allows 15°)" : "", r.new_faces.size());
             if (merged) {
               line += " (met an opening of the mesh: not scored)";
             } else {
