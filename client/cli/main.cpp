@@ -95,7 +95,9 @@ int main(int argc, char** argv) {
           "mended across the triangulation's folds); fair: bi-Laplacian fairing that continues\n"
           "the surrounding surface (exactly, where it is a sphere or a quadric); auto: flat\n"
           "where the surroundings are planar or piecewise planar along creases (CAD), else\n"
-          "fair (the report says why)")
+          "fair (the report says why). A faired patch that is refused (a balloon, a\n"
+          "crossing) is filled flat instead, or with a membrane where the flat one would keep a\n"
+          "triangle under 15 degrees")
       ->check(CLI::IsMember({"flat", "fair", "auto"}))
       ->capture_default_str();
   fill_cmd

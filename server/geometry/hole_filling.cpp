@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <optional>
 #include <unordered_map>
@@ -1002,6 +1003,10 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     bool collapse_early = false;
     //! The repeat of an attempt refused only for a degenerate triangle (see below).
     bool accept_degenerate = false;
+    //! A membrane instead of the thin plate (FillOptions::membrane_fallback).
+    bool membrane = false;
+    //! A flat stand-in built again after the membrane tried in its place did no better.
+    bool rebuilt = false;
   };
   constexpr std::size_t kFirstCrossed = static_cast<std::size_t>(-1);
   std::vector<Attempt> attempts;
@@ -1073,6 +1078,12 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // 15° (8.5° with --sharp off).
   std::optional<Attempt> degenerate_attempt;
   bool degenerate_repeated = false;
+  // The flat stand-in of a refused thin plate keeps the spanning triangulation's surface, so
+  // its folds over a bent rim can leave triangles under DESIGN's 15° that no move within that
+  // surface mends. Such a stand-in is set aside for a membrane over the same triangulation
+  // (FillOptions::membrane_fallback), which the 3D mending can give that angle; the one with
+  // the larger smallest angle is kept.
+  double set_aside_flat_angle = -1;
   for (std::size_t next_attempt = 0;; ++next_attempt) {
     if (next_attempt == attempts.size()) {
       if (!degenerate_attempt || degenerate_repeated) break;
@@ -1092,14 +1103,15 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       const FillMethod method = methods[m];
       if (!step.accept_degenerate && (dead[m] || (step.fallback && !refused_fair[m]))) continue;
       const bool fair = step.fair;
-      if (!step.accept_degenerate && balloon_bulge > 0 && whole_hole_fairing(m, fair)) {
+      if (!step.accept_degenerate && !step.membrane && balloon_bulge > 0 &&
+          whole_hole_fairing(m, fair)) {
         shape_warnings.push_back(
             fmt::format("{}: not faired (a faired patch of this hole rose {:.2f} hole radii)",
                         to_string(method), balloon_bulge));
         refused_fair[m] = 1;
         continue;
       }
-      const int pass = step.fallback ? 1 : 0;
+      const int pass = step.fallback && !step.membrane ? 1 : 0;
       const bool avoid = !fair && method == FillMethod::MinimumWeight3d;
       std::optional<TopologyPatch>& topology = topologies[2 * m + (avoid ? 1 : 0)];
       if (!topology) {
@@ -1136,12 +1148,21 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       attempt.method = method;
       attempt.pieces = patch.pieces;
       attempt.angles_closed = patch.angles_closed;
+      // The membrane lies within the rim's convex hull (each coordinate is harmonic), so it
+      // cannot balloon: no bulge limit, and no base surface (a fitted one can).
+      std::optional<FillOptions> membrane_options;
+      if (step.membrane) {
+        membrane_options = options;
+        membrane_options->fairing.continuity = 0;
+        membrane_options->fairing.base_fit_rings = 0;
+        membrane_options->max_fair_bulge = std::numeric_limits<double>::infinity();
+      }
       std::string refused = build_patch_surface(
           mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces, fair,
           pass == 1 || method == FillMethod::CreaseSplit || artefact_folds, step.collapse_early,
-          options, attempt);
-      if (fair) last_bulge = attempt.fair_bulge;
-      if (whole_hole_fairing(m, fair) &&
+          membrane_options ? *membrane_options : options, attempt);
+      if (fair && !step.membrane) last_bulge = attempt.fair_bulge;
+      if (whole_hole_fairing(m, fair) && !step.membrane &&
           attempt.fair_bulge > kClearBalloon * options.max_fair_bulge)
         balloon_bulge = attempt.fair_bulge;
       // A simple hole's patch that projects injectively onto the hole's reference plane cannot
@@ -1174,7 +1195,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (crosses)
         refused = fair ? "the faired patch would intersect the mesh"
                        : "the new faces would intersect existing faces";
-      if (crosses && fair) crossed_fair[m] = 1;
+      if (crosses && fair && !step.membrane) crossed_fair[m] = 1;
       const double worst_angle = refused.empty() ? min_angle_deg(mesh, faces) : 0.0;
       if (refused.empty() && !step.accept_degenerate && worst_angle < kDegenerateAngleDeg) {
         refused = fmt::format("it leaves a degenerate triangle ({:.3f}°)", worst_angle);
@@ -1183,6 +1204,24 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
           degenerate_attempt->method = m;  // resolved (kFirstCrossed)
           degenerate_attempt->accept_degenerate = true;
         }
+      }
+      if (refused.empty() && step.membrane && worst_angle <= set_aside_flat_angle)
+        refused = fmt::format(
+            "the membrane's smallest angle {:.1f}° is no larger than the flat "
+            "stand-in's {:.1f}°",
+            worst_angle, set_aside_flat_angle);
+      if (refused.empty() && options.membrane_fallback && !fair && step.fallback && !step.rebuilt &&
+          whole_hole_fairing(m, true) && worst_angle < kRescueBelowDeg) {
+        remove_patch(mesh, faces, vertices);
+        set_aside_flat_angle = worst_angle;
+        Attempt membrane = step;
+        membrane.fair = true;
+        membrane.membrane = true;
+        Attempt rebuilt = step;
+        rebuilt.rebuilt = true;
+        attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
+                        {membrane, rebuilt});
+        continue;
       }
       if (!refused.empty()) {
         remove_patch(mesh, faces, vertices);
@@ -1203,6 +1242,11 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         attempt.shape_reason =
             fmt::format("split along {} crease curve{} ({})", attempt.crease_curves,
                         attempt.crease_curves == 1 ? "" : "s", creases->summary);
+      } else if (step.membrane) {
+        attempt.shape_reason = fmt::format(
+            "a membrane: the thin plate chosen for {} was refused, and the flat stand-in's "
+            "smallest angle was {:.1f}°",
+            shape_reason, set_aside_flat_angle);
       } else if (step.fallback) {
         // The reason the faired shape was chosen would read as the flat patch's own.
         attempt.shape_reason =
@@ -1224,6 +1268,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         attempt.warnings.push_back(fmt::format("faired surfaces refused: {}{}",
                                                fmt::join(shape_warnings, "; "),
                                                !fair                 ? "; filled flat instead"
+                                               : step.membrane       ? "; filled with a membrane"
                                                : step.collapse_early ? "; faired again with the "
                                                                        "crowded vertices collapsed"
                                                                      : ""));
@@ -1235,7 +1280,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (!failures.empty())
         attempt.warnings.push_back("earlier methods failed: " +
                                    fmt::format("{}", fmt::join(failures, "; ")));
-      if (!fair) attempt.fair_bulge = last_bulge;
+      if (!fair || step.membrane) attempt.fair_bulge = last_bulge;
       report = std::move(attempt);
       reach.add(mesh, report.new_faces);
       return finish();

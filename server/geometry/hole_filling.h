@@ -81,6 +81,12 @@ struct FillOptions {
   //! tangents open outwards, e.g. at the rim of a flat cap) and stays flat. A spherical cap of
   //! half-angle 53° rises half its radius; the shared cases' true patches stay below 0.4.
   double max_fair_bulge = 0.5;
+  //! A flat stand-in for a refused thin plate that keeps a triangle under 15° (its folds over
+  //! a bent rim, which no move within its surface mends) is set aside for a membrane over the
+  //! same triangulation (L x = 0, FairingOptions::continuity 0): it lies within the rim's hull,
+  //! so it cannot balloon, and it is mended in 3D. The one with the larger smallest angle is
+  //! kept. Off: the flat stand-in, whatever its angles.
+  bool membrane_fallback = true;
   //! After the refinement: mend the triangles below the quality goal (patch_quality.h) before
   //! the patch is faired or kept flat. Off: the refined triangulation as Algorithm III leaves it.
   bool improve_quality = true;

@@ -9,7 +9,9 @@
 
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_intersections.h"
+#include "server/geometry/mesh_io.h"
 #include "server/geometry/metrics.h"
+#include "tests/support/cases.h"
 #include "tests/support/invariants.h"
 #include "tests/support/mesh_factory.h"
 
@@ -132,6 +134,41 @@ TEST(FillHole, AFlatFallbackSaysTheFairedShapeWasRefused) {
   EXPECT_NE(r.shape_reason.find("was refused"), std::string::npos) << r.shape_reason;
   ASSERT_FALSE(r.warnings.empty());
   EXPECT_NE(r.warnings.front().find("filled flat instead"), std::string::npos) << r.warnings[0];
+}
+
+// A ball cut through spot's neck leaves a 14-edge hole whose thin plate is refused; the flat
+// stand-in over its bent rim keeps folds that no move within its surface mends (11.5°). The
+// membrane over the same triangulation is mended in 3D to DESIGN's 15° (21.0°), and stays near
+// the removed surface.
+TEST(FillHole, AFlatStandInUnder15DegreesGivesWayToAMembrane) {
+  const ReadResult read = read_mesh_file(testing::shared_data_dir() + "/meshes/spot.obj");
+  ASSERT_TRUE(read.ok) << read.error;
+  const Vec3 centre(0.0439995, -0.453929, 0.682063);
+  std::vector<std::array<Vec3, 3>> removed;
+  const MeshSoup cut = remove_faces(
+      read.soup, [&](const Vec3& c) { return (c - centre).norm() < 0.340663462; }, &removed);
+  const std::vector<TrianglePoints> truth(removed.begin(), removed.end());
+  const auto small_hole = [](const Hole& h) { return h.loop.size() == 14; };
+  const FillRun run = fill_and_check(cut, {}, small_hole);
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Fair);
+  EXPECT_EQ(r.shape_reason.rfind("a membrane", 0), 0u) << r.shape_reason;
+  EXPECT_GE(min_new_angle(run), 15.0);
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+  const double diagonal = 2.5881;  // spot's bounding-box diagonal
+  const SurfaceDistance d =
+      surface_distance(face_triangles(run.mesh, r.new_faces), truth, 1e-3 * diagonal);
+  EXPECT_LT(d.mean_a_to_b, 0.015 * diagonal);
+
+  FillOptions flat_only;
+  flat_only.membrane_fallback = false;
+  const FillRun flat = fill_and_check(cut, flat_only, small_hole);
+  ASSERT_EQ(flat.reports.size(), 1u);
+  ASSERT_TRUE(flat.reports[0].filled) << flat.reports[0].reason;
+  EXPECT_EQ(flat.reports[0].shape, PatchShape::Flat);
+  EXPECT_LT(min_new_angle(flat), 15.0);
 }
 
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
