@@ -1112,7 +1112,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         continue;
       }
       const int pass = step.fallback && !step.membrane ? 1 : 0;
-      const bool avoid = !fair && method == FillMethod::MinimumWeight3d;
+      // The membrane is built over its flat stand-in's triangulation.
+      const bool avoid = (!fair || step.membrane) && method == FillMethod::MinimumWeight3d;
       std::optional<TopologyPatch>& topology = topologies[2 * m + (avoid ? 1 : 0)];
       if (!topology) {
         if (method == FillMethod::MinimumWeight3d && hole.loop.size() > options.max_dp_vertices) {
@@ -1226,9 +1227,12 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (!refused.empty()) {
         remove_patch(mesh, faces, vertices);
         if (fair) {
-          shape_warnings.push_back(fmt::format(
-              "{}{}: {}", to_string(method),
-              step.collapse_early ? " (again, crowded vertices collapsed)" : "", refused));
+          shape_warnings.push_back(fmt::format("{}{}: {}", to_string(method),
+                                               step.collapse_early
+                                                   ? " (again, crowded vertices collapsed)"
+                                               : step.membrane ? " (a membrane)"
+                                                               : "",
+                                               refused));
           refused_fair[m] = 1;
         } else {
           failures.push_back(fmt::format("{}: {}", to_string(method), refused));
