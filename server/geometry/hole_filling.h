@@ -56,6 +56,10 @@ struct FillOptions {
   double close_angle = 5.0 * std::numbers::pi / 9.0;  //!< seed 000 §3.4.2
   FairingOptions fairing;
   std::size_t max_dp_vertices = 400;  //!< size limit of the O(n^3) 3D triangulation
+  //! A larger hole that every automatic method left open gets the 3D triangulation anyway, up
+  //! to this many boundary vertices (its tables take about 100 bytes per pair of vertices: some
+  //! 100 MB at 1,000); 0: never.
+  std::size_t last_resort_dp_vertices = 1000;
   //! A flat 3D triangulation whose triangles cross the mesh is solved again without them, at
   //! most this many times (each solve is O(n^3), so large loops get fewer rounds).
   int max_avoiding_rounds = 16;

@@ -171,7 +171,7 @@ int main(int argc, char** argv) {
   std::string only, save_dir;
   app.add_option("--only", only,
                  "Fill only this cut, as MESH:SEED:CUT (e.g. fandisk.obj:2:3; the others are "
-                 "still drawn, so the cut is the same)");
+                 "still drawn, so the cut is the same), and print its balls");
   app.add_option("--save", save_dir,
                  "Write each filled cut's holed mesh to this directory (MESH-sSEED-cCUT.off), to "
                  "fill it again with the touchmend command line");
@@ -254,6 +254,11 @@ int main(int argc, char** argv) {
         }
         const std::string where = fmt::format("{} seed {} cut {}", name, seed, cut);
         if (!only.empty() && only != fmt::format("{}:{}:{}", name, seed, cut)) continue;
+        // One cut asked for: its balls, to rebuild it elsewhere (a test, a bug report).
+        if (!only.empty())
+          for (const auto& [centre, radius] : spheres)
+            fmt::print("ball centre ({:.9g}, {:.9g}, {:.9g}) radius {:.9g}\n", centre[0], centre[1],
+                       centre[2], radius);
         const auto in_cut = [&](const geo::Vec3& c) {
           return std::any_of(spheres.begin(), spheres.end(),
                              [&](const auto& s) { return (c - s.first).norm() < s.second; });

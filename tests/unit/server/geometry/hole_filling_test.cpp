@@ -1,5 +1,7 @@
 #include "server/geometry/hole_filling.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -169,6 +171,40 @@ TEST(FillHole, AFlatStandInUnder15DegreesGivesWayToAMembrane) {
   ASSERT_TRUE(flat.reports[0].filled) << flat.reports[0].reason;
   EXPECT_EQ(flat.reports[0].shape, PatchShape::Flat);
   EXPECT_LT(min_new_angle(flat), 15.0);
+}
+
+// Two balls cut out of the bunny's flank (touchmend-cut-bench --max-radius 0.3 --only
+// stanford-bunny.obj:3:7) leave a 410-edge hole, over the 3D triangulation's 400-vertex limit,
+// whose planar and piecewise patches and ear clipping all cross the mesh. The 3D
+// triangulation of all 410 vertices closes it as a last resort.
+TEST(FillHole, AHoleOverTheTriangulationLimitThatNothingElseClosesGetsItAsALastResort) {
+  const ReadResult read = read_mesh_file(testing::shared_data_dir() + "/meshes/stanford-bunny.obj");
+  ASSERT_TRUE(read.ok) << read.error;
+  const std::array<std::pair<Vec3, double>, 2> balls{
+      {{Vec3(-0.079272, 0.107765, 0.032001), 0.0149707959},
+       {Vec3(-0.057745, 0.076784, -0.019116), 0.0534781316}}};
+  const MeshSoup cut = remove_faces(read.soup, [&](const Vec3& c) {
+    return std::any_of(balls.begin(), balls.end(),
+                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
+  });
+  const auto large_hole = [](const Hole& h) { return h.loop.size() == 410; };
+  const FillRun run = fill_and_check(cut, {}, large_hole);
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::MinimumWeight3d);
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings.back().find("a last resort"), std::string::npos) << r.warnings.back();
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+  EXPECT_GE(min_new_angle(run), 15.0);
+
+  FillOptions no_last_resort;
+  no_last_resort.last_resort_dp_vertices = 0;
+  const FillRun open = fill_and_check(cut, no_last_resort, large_hole);
+  ASSERT_EQ(open.reports.size(), 1u);
+  EXPECT_FALSE(open.reports[0].filled);
+  EXPECT_NE(open.reports[0].reason.find("exceed its limit of 400"), std::string::npos)
+      << open.reports[0].reason;
 }
 
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
