@@ -1151,8 +1151,9 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       attempt.method = method;
       attempt.pieces = patch.pieces;
       attempt.angles_closed = patch.angles_closed;
-      // The membrane lies within the rim's convex hull (each coordinate is harmonic), so it
-      // cannot balloon: no bulge limit, and no base surface (a fitted one can).
+      // The membrane stays within the rim's convex hull (each coordinate is harmonic; with
+      // cotangent weights up to their negative ones across obtuse angles), so it does not
+      // balloon: no bulge limit, and no base surface (a fitted one can).
       std::optional<FillOptions> membrane_options;
       if (step.membrane) {
         membrane_options = options;
@@ -1310,6 +1311,11 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
           "the 3D triangulation of all {} boundary vertices, a last resort",
           options.max_dp_vertices, fmt::join(failures, "; "), hole.loop.size()));
       last.seconds = seconds_since(start);
+      last.phases.triangulate += attempt_phases.triangulate;
+      last.phases.refine += attempt_phases.refine;
+      last.phases.mend += attempt_phases.mend;
+      last.phases.fair += attempt_phases.fair;
+      last.phases.check += attempt_phases.check;
       return last;
     }
     failures.push_back(fmt::format("{} over its limit, as a last resort: {}",

@@ -87,8 +87,8 @@ struct FillOptions {
   double max_fair_bulge = 0.5;
   //! A flat stand-in for a refused thin plate that keeps a triangle under 15° (its folds over
   //! a bent rim, which no move within its surface mends) is set aside for a membrane over the
-  //! same triangulation (L x = 0, FairingOptions::continuity 0): it lies within the rim's hull,
-  //! so it cannot balloon, and it is mended in 3D. The one with the larger smallest angle is
+  //! same triangulation (L x = 0, FairingOptions::continuity 0): it stays within the rim's hull,
+  //! so it does not balloon, and it is mended in 3D. The one with the larger smallest angle is
   //! kept. Off: the flat stand-in, whatever its angles.
   bool membrane_fallback = true;
   //! After the refinement: mend the triangles below the quality goal (patch_quality.h) before
