@@ -1211,8 +1211,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       }
       if (refused.empty() && step.membrane && worst_angle <= set_aside_flat_angle)
         refused = fmt::format(
-            "the membrane's smallest angle {:.1f}° is no larger than the flat "
-            "stand-in's {:.1f}°",
+            "the membrane's smallest angle {:.1f} deg is no larger than the flat "
+            "stand-in's {:.1f} deg",
             worst_angle, set_aside_flat_angle);
       if (refused.empty() && options.membrane_fallback && !fair && step.fallback && !step.rebuilt &&
           whole_hole_fairing(m, true) && worst_angle < kRescueBelowDeg) {
@@ -1252,7 +1252,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       } else if (step.membrane) {
         attempt.shape_reason = fmt::format(
             "a membrane: the thin plate chosen for {} was refused, and the flat stand-in's "
-            "smallest angle was {:.1f}°",
+            "smallest angle was {:.1f} deg",
             shape_reason, set_aside_flat_angle);
       } else if (step.fallback) {
         // The reason the faired shape was chosen would read as the flat patch's own.
