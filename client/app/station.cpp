@@ -25,19 +25,23 @@ Vec3 closest_on_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
   return a + t * ab;
 }
 
+//! Key of the directed edge a -> b.
+std::uint64_t directed_key(std::uint32_t a, std::uint32_t b) {
+  return (std::uint64_t(a) << 32) | b;
+}
+
 //! The faces of the piece the loop \p loop borders, if the loop is that piece's whole border and
 //! the piece has no more faces than the loop has edges (as the server's fragment_piece), else 0.
 //! \p directed: each directed triangle edge (key a << 32 | b) to its triangle.
 std::size_t fragment_faces(const haptics::SurfaceMesh& mesh,
                            const std::unordered_map<std::uint64_t, std::uint32_t>& directed,
                            const std::vector<std::uint32_t>& loop) {
-  const auto key = [](std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; };
   const std::size_t limit = loop.size();
   std::unordered_set<std::uint32_t> piece;
   std::vector<std::uint32_t> stack;
   for (std::size_t i = 0; i < loop.size(); ++i) {
     // The loop runs v_i -> v_i+1 along the reversed boundary edge (v_i+1, v_i) of a triangle.
-    const auto it = directed.find(key(loop[(i + 1) % loop.size()], loop[i]));
+    const auto it = directed.find(directed_key(loop[(i + 1) % loop.size()], loop[i]));
     if (it != directed.end() && piece.insert(it->second).second) stack.push_back(it->second);
   }
   std::size_t border = 0;
@@ -46,7 +50,7 @@ std::size_t fragment_faces(const haptics::SurfaceMesh& mesh,
     const auto& t = mesh.triangles[stack.back()];
     stack.pop_back();
     for (int k = 0; k < 3; ++k) {
-      const auto twin = directed.find(key(t[(k + 1) % 3], t[k]));
+      const auto twin = directed.find(directed_key(t[(k + 1) % 3], t[k]));
       if (twin == directed.end())
         ++border;
       else if (piece.insert(twin->second).second)
@@ -63,15 +67,15 @@ std::vector<HoleLoop> find_boundary_loops(const haptics::SurfaceMesh& mesh) {
   // (b, a). The hole runs along the reversed boundary edges.
   std::unordered_map<std::uint64_t, std::uint32_t> directed;
   directed.reserve(mesh.triangles.size() * 3);
-  const auto key = [](std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; };
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const auto& t = mesh.triangles[f];
-    for (int k = 0; k < 3; ++k) directed.emplace(key(t[k], t[(k + 1) % 3]), std::uint32_t(f));
+    for (int k = 0; k < 3; ++k)
+      directed.emplace(directed_key(t[k], t[(k + 1) % 3]), std::uint32_t(f));
   }
   std::unordered_multimap<std::uint32_t, std::uint32_t> next;  // along the hole: b -> a
   for (const auto& [k, face] : directed) {
     const auto a = static_cast<std::uint32_t>(k >> 32), b = static_cast<std::uint32_t>(k);
-    if (!directed.contains(key(b, a))) next.emplace(b, a);
+    if (!directed.contains(directed_key(b, a))) next.emplace(b, a);
   }
   std::vector<HoleLoop> loops;
   while (!next.empty()) {

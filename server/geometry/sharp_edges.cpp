@@ -876,6 +876,13 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
   return true;
 }
 
+//! Hermite control points (P1..P4) whose curve is the straight segment \p a -> \p b: a crease
+//! known to be straight there, which fitted tangents would only bow off it.
+HermitePoints straight_curve_points(const Vec3& a, const Vec3& b) {
+  const Vec3 chord = b - a;
+  return {a - chord, a, b, b + chord};
+}
+
 //! Creases left over that run straight into a rim vertex where a crease meets the rim end
 //! there: the cut went through a corner of the part, so the creases meet on the rim and not
 //! inside the hole (the least-squares corner of join_at_corners then falls on the rim, outside
@@ -962,7 +969,7 @@ std::vector<std::size_t> end_at_rim_corners(HoleCreasePlan& plan, FaceNormals& n
     // ends (the fitted tangent, within the few degrees allowed, would bow the curve off it).
     CreaseCurve curve;
     curve.from = a;
-    curve.points = {ca.position - chord, ca.position, corner, corner + chord};
+    curve.points = straight_curve_points(ca.position, corner);
     const HermiteCurveResult r = make_hermite_curve(curve.points, hermite, tolerance);
     if (!r.curve) continue;
     curve.curve = *r.curve;
@@ -1358,10 +1365,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     curve.from = p.a;
     curve.to = p.b;
     curve.points = {ca.far_point, ca.position, cb.position, cb.far_point};
-    if (p.straight) {
-      const Vec3 chord = cb.position - ca.position;
-      curve.points = {ca.position - chord, ca.position, cb.position, cb.position + chord};
-    }
+    if (p.straight) curve.points = straight_curve_points(ca.position, cb.position);
     const HermiteCurveResult r = make_hermite_curve(curve.points, options.hermite, tolerance);
     if (!r.curve) continue;
     curve.curve = *r.curve;

@@ -263,13 +263,8 @@ int main(int argc, char** argv) {
           return std::any_of(spheres.begin(), spheres.end(),
                              [&](const auto& s) { return (c - s.first).norm() < s.second; });
         };
-        const geo::MeshSoup holed = tmd::testing::remove_faces(read.soup, in_cut);
         std::vector<geo::TrianglePoints> removed;
-        for (const auto& t : read.soup.triangles) {
-          const geo::TrianglePoints tp{read.soup.points[t[0]], read.soup.points[t[1]],
-                                       read.soup.points[t[2]]};
-          if (in_cut((tp[0] + tp[1] + tp[2]) / 3.0)) removed.push_back(tp);
-        }
+        const geo::MeshSoup holed = tmd::testing::remove_faces(read.soup, in_cut, &removed);
         geo::Mesh mesh = geo::build_mesh(holed).mesh;
         if (!save_dir.empty()) {
           const std::string path = fmt::format("{}/{}-s{}-c{}.off", save_dir, name, seed, cut);

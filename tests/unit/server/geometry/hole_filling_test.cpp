@@ -146,10 +146,9 @@ TEST(FillHole, AFlatStandInUnder15DegreesGivesWayToAMembrane) {
   const ReadResult read = read_mesh_file(testing::shared_data_dir() + "/meshes/spot.obj");
   ASSERT_TRUE(read.ok) << read.error;
   const Vec3 centre(0.0439995, -0.453929, 0.682063);
-  std::vector<std::array<Vec3, 3>> removed;
+  std::vector<TrianglePoints> truth;  // the removed faces
   const MeshSoup cut = remove_faces(
-      read.soup, [&](const Vec3& c) { return (c - centre).norm() < 0.340663462; }, &removed);
-  const std::vector<TrianglePoints> truth(removed.begin(), removed.end());
+      read.soup, [&](const Vec3& c) { return (c - centre).norm() < 0.340663462; }, &truth);
   const auto small_hole = [](const Hole& h) { return h.loop.size() == 14; };
   const FillRun run = fill_and_check(cut, {}, small_hole);
   ASSERT_EQ(run.reports.size(), 1u);
