@@ -1311,11 +1311,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
           "the 3D triangulation of all {} boundary vertices, a last resort",
           options.max_dp_vertices, fmt::join(failures, "; "), hole.loop.size()));
       last.seconds = seconds_since(start);
-      last.phases.triangulate += attempt_phases.triangulate;
-      last.phases.refine += attempt_phases.refine;
-      last.phases.mend += attempt_phases.mend;
-      last.phases.fair += attempt_phases.fair;
-      last.phases.check += attempt_phases.check;
+      last.phases += attempt_phases;
       return last;
     }
     failures.push_back(fmt::format("{} over its limit, as a last resort: {}",

@@ -140,6 +140,14 @@ struct HoleFillReport {
     double mend = 0;         //!< patch_quality
     double fair = 0;         //!< the fairing solves
     double check = 0;        //!< gathering the faces near the hole, and the intersection checks
+    Phases& operator+=(const Phases& other) {
+      triangulate += other.triangulate;
+      refine += other.refine;
+      mend += other.mend;
+      fair += other.fair;
+      check += other.check;
+      return *this;
+    }
   } phases;
   std::vector<std::string> warnings;
   std::vector<FaceHandle> new_faces;
