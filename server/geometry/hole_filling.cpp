@@ -1009,6 +1009,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     bool membrane = false;
     //! A flat stand-in built again after the membrane tried in its place did no better.
     bool rebuilt = false;
+    //! A flat patch built again with the triangulation's folds kept (see below).
+    bool keep_folds = false;
   };
   constexpr std::size_t kFirstCrossed = static_cast<std::size_t>(-1);
   std::vector<Attempt> attempts;
@@ -1086,7 +1088,21 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // (FillOptions::membrane_fallback), which the 3D mending can give that angle; the one with
   // the larger smallest angle is kept.
   double set_aside_flat_angle = -1;
+  // A flat patch whose mending flipped across the triangulation's folds (a stand-in, a crease
+  // split's region, a flat patch over curved surroundings) can end up crossing the mesh although
+  // the triangulation itself is clean: a flip across a fold moves the surface, here onto a face
+  // that lies just off the rim (a cut across a CAD wall's foot, couplingdown s1c6 hole 307: the
+  // 3D triangulation clears the faces of a neighbouring hole's rim, the flip through them does
+  // not). When no other attempt closes the hole, each such method is built again with its folds
+  // kept: its mending then only flips and moves within coplanar triangles, so the patch is the
+  // clean triangulation's surface.
+  std::vector<Attempt> fold_keeping_attempts;
+  bool fold_keeping_queued = false;
   for (std::size_t next_attempt = 0;; ++next_attempt) {
+    if (next_attempt == attempts.size() && !fold_keeping_queued) {
+      attempts.insert(attempts.end(), fold_keeping_attempts.begin(), fold_keeping_attempts.end());
+      fold_keeping_queued = true;
+    }
     if (next_attempt == attempts.size()) {
       if (!degenerate_attempt || degenerate_repeated) break;
       attempts.push_back(*degenerate_attempt);
@@ -1103,7 +1119,9 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         retried = true;
       }
       const FillMethod method = methods[m];
-      if (!step.accept_degenerate && (dead[m] || (step.fallback && !refused_fair[m]))) continue;
+      if (!step.accept_degenerate && !step.keep_folds &&
+          (dead[m] || (step.fallback && !refused_fair[m])))
+        continue;
       const bool fair = step.fair;
       if (!step.accept_degenerate && !step.membrane && balloon_bulge > 0 &&
           whole_hole_fairing(m, fair)) {
@@ -1161,10 +1179,12 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         membrane_options->fairing.base_fit_rings = 0;
         membrane_options->max_fair_bulge = std::numeric_limits<double>::infinity();
       }
+      const bool mend_folds =
+          !step.keep_folds &&
+          (pass == 1 || method == FillMethod::CreaseSplit || artefact_folds);
       std::string refused = build_patch_surface(
-          mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces, fair,
-          pass == 1 || method == FillMethod::CreaseSplit || artefact_folds, step.collapse_early,
-          membrane_options ? *membrane_options : options, attempt);
+          mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces, fair, mend_folds,
+          step.collapse_early, membrane_options ? *membrane_options : options, attempt);
       if (fair && !step.membrane) last_bulge = attempt.fair_bulge;
       if (whole_hole_fairing(m, fair) && !step.membrane &&
           attempt.fair_bulge > kClearBalloon * options.max_fair_bulge)
@@ -1200,6 +1220,14 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         refused = fair ? "the faired patch would intersect the mesh"
                        : "the new faces would intersect existing faces";
       if (crosses && fair && !step.membrane) crossed_fair[m] = 1;
+      if (crosses && !fair && mend_folds && !fold_keeping_queued &&
+          std::none_of(fold_keeping_attempts.begin(), fold_keeping_attempts.end(),
+                       [&](const Attempt& a) { return a.method == m; })) {
+        Attempt again = step;
+        again.method = m;  // resolved (kFirstCrossed)
+        again.keep_folds = true;
+        fold_keeping_attempts.push_back(again);
+      }
       const double worst_angle = refused.empty() ? min_angle_deg(mesh, faces) : 0.0;
       if (refused.empty() && !step.accept_degenerate && worst_angle < kDegenerateAngleDeg) {
         refused = fmt::format("it leaves a degenerate triangle ({:.3f}°)", worst_angle);
@@ -1215,6 +1243,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
             "stand-in's {:.1f} deg",
             worst_angle, set_aside_flat_angle);
       if (refused.empty() && options.membrane_fallback && !fair && step.fallback && !step.rebuilt &&
+          !step.keep_folds &&
           whole_hole_fairing(m, true) && worst_angle < kRescueBelowDeg) {
         remove_patch(mesh, faces, vertices);
         set_aside_flat_angle = worst_angle;
@@ -1261,6 +1290,9 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       } else {
         attempt.shape_reason = shape_reason;
       }
+      if (step.keep_folds)
+        attempt.shape_reason +=
+            "; the triangulation's folds kept (mended across, the patch crossed the mesh)";
       if (attempt.shape == PatchShape::Fair && !attempt.fair_base.empty())
         attempt.shape_reason += fmt::format(
             "; the patch continues the {} fitted to the surroundings", attempt.fair_base);

@@ -206,6 +206,37 @@ TEST(FillHole, AHoleOverTheTriangulationLimitThatNothingElseClosesGetsItAsALastR
       << open.reports[0].reason;
 }
 
+// Five balls cut out of the coupling (touchmend-cut-bench --only couplingdown.off:1:6) leave a
+// 26-edge hole across the foot of a wall, its rim a comb of strip triangles hanging from the
+// wall's top row, next to another hole's rim. The 3D triangulation is clean, but its mending
+// across the folds (the stand-in of the refused faired patch) flips an edge through a face of
+// that rim, and every other attempt crosses the mesh too: the flat 3D triangulation is built
+// again with its folds kept, and the hole is closed.
+TEST(FillHole, AFlatPatchWhoseMendingAcrossFoldsCrossesTheMeshIsBuiltAgainWithItsFoldsKept) {
+  const ReadResult read = read_mesh_file(testing::shared_data_dir() + "/meshes/couplingdown.off");
+  ASSERT_TRUE(read.ok) << read.error;
+  const std::array<std::pair<Vec3, double>, 5> balls{
+      {{Vec3(-0.0162827, -0.478988, -0.174528), 0.197601784},
+       {Vec3(-0.143505, -0.221517, -0.028951), 0.206316095},
+       {Vec3(-0.0660867, 0.234673, -0.028951), 0.100110516},
+       {Vec3(0.0264997, 0.440472, -0.0628931), 0.198419371},
+       {Vec3(-0.232812, -0.166766, -0.0330189), 0.183701221}}};
+  const MeshSoup cut = remove_faces(read.soup, [&](const Vec3& c) {
+    return std::any_of(balls.begin(), balls.end(),
+                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
+  });
+  const auto comb_hole = [](const Hole& h) { return h.id == 307 && h.loop.size() == 26; };
+  const FillRun run = fill_and_check(cut, {}, comb_hole);
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::MinimumWeight3d);
+  EXPECT_EQ(r.shape, PatchShape::Flat);
+  EXPECT_NE(r.shape_reason.find("folds kept"), std::string::npos) << r.shape_reason;
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+  EXPECT_GT(r.min_angle_deg, 1.0);
+}
+
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
   const MeshSoup s = testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2);
   FillOptions plain;  // without crease retaining: the auto shape alone
