@@ -1180,8 +1180,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         membrane_options->max_fair_bulge = std::numeric_limits<double>::infinity();
       }
       const bool mend_folds =
-          !step.keep_folds &&
-          (pass == 1 || method == FillMethod::CreaseSplit || artefact_folds);
+          !step.keep_folds && (pass == 1 || method == FillMethod::CreaseSplit || artefact_folds);
       std::string refused = build_patch_surface(
           mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces, fair, mend_folds,
           step.collapse_early, membrane_options ? *membrane_options : options, attempt);
@@ -1243,8 +1242,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
             "stand-in's {:.1f} deg",
             worst_angle, set_aside_flat_angle);
       if (refused.empty() && options.membrane_fallback && !fair && step.fallback && !step.rebuilt &&
-          !step.keep_folds &&
-          whole_hole_fairing(m, true) && worst_angle < kRescueBelowDeg) {
+          !step.keep_folds && whole_hole_fairing(m, true) && worst_angle < kRescueBelowDeg) {
         remove_patch(mesh, faces, vertices);
         set_aside_flat_angle = worst_angle;
         Attempt membrane = step;
