@@ -302,9 +302,12 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
     std::unordered_map<std::uint64_t, bool> crosses_mesh;
     std::vector<std::pair<int, int>> crossing_chords;
     const int n = static_cast<int>(loop.points.size());
-    // Rounds shrink with the cubic cost of a solve: about 4·10^7 candidate triangles in all.
-    const int rounds = std::clamp(static_cast<int>(4e7 / (static_cast<double>(n) * n * n)), 1,
-                                  std::max(1, options.max_avoiding_rounds));
+    // The rounds' work is bounded: about 4·10^7 candidate triangles in all (an interval
+    // weighs up to n of them). A round after the first solves only the intervals around what
+    // it forbade, so it costs a fraction of the first.
+    const double max_intervals = 4e7 / static_cast<double>(n);
+    const std::size_t intervals_before = solver.intervals_solved();
+    const int rounds = std::max(1, options.max_avoiding_rounds);
     for (int round = 0;; ++round) {
       LiepaTriangulation t = solver.solve();
       out.ok = t.ok;
@@ -315,7 +318,8 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
           triangles_crossing(mesh, hole, loop, reach, index_near_hole, round == 0, out.triangles,
                              crosses_mesh, crossing_chords);
       if (bad.empty()) return out;
-      if (round + 1 >= rounds) {
+      if (round + 1 >= rounds ||
+          static_cast<double>(solver.intervals_solved() - intervals_before) >= max_intervals) {
         out.ok = false;
         out.failure = fmt::format(
             "after {} rounds that forbade the triangles crossing the mesh, {} still cross it",
@@ -1009,8 +1013,9 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     bool membrane = false;
     //! A flat stand-in built again after the membrane tried in its place did no better.
     bool rebuilt = false;
-    //! A flat patch built again with the triangulation's folds kept (see below).
-    bool keep_folds = false;
+    //! How far a flat patch is mended (a patch that crossed the mesh is built again with less
+    //! mending, see below).
+    enum class Mending { Full, FoldsKept, None } mending = Mending::Full;
   };
   constexpr std::size_t kFirstCrossed = static_cast<std::size_t>(-1);
   std::vector<Attempt> attempts;
@@ -1088,20 +1093,25 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // (FillOptions::membrane_fallback), which the 3D mending can give that angle; the one with
   // the larger smallest angle is kept.
   double set_aside_flat_angle = -1;
-  // A flat patch whose mending flipped across the triangulation's folds (a stand-in, a crease
-  // split's region, a flat patch over curved surroundings) can end up crossing the mesh although
-  // the triangulation itself is clean: a flip across a fold moves the surface, here onto a face
-  // that lies just off the rim (a cut across a CAD wall's foot, couplingdown s1c6 hole 307: the
-  // 3D triangulation clears the faces of a neighbouring hole's rim, the flip through them does
-  // not). When no other attempt closes the hole, each such method is built again with its folds
-  // kept: its mending then only flips and moves within coplanar triangles, so the patch is the
-  // clean triangulation's surface.
-  std::vector<Attempt> fold_keeping_attempts;
-  bool fold_keeping_queued = false;
+  // A flat patch can cross the mesh although its triangulation is clean (the avoiding 3D
+  // triangulation, a planar one that no face pokes through): the mending moved its surface.
+  //  - A flip across one of the triangulation's folds (a stand-in, a crease split's region, a
+  //    flat patch over curved surroundings) moves the surface onto a face just off the rim (a
+  //    cut across a CAD wall's foot, couplingdown s1c6 hole 307: the 3D triangulation clears
+  //    the faces of a neighbouring hole's rim, the flip through them does not). Built again
+  //    with its folds kept, its mending only flips and moves within coplanar triangles.
+  //  - Even so, the mending's moves and splits can bring two of the patch's own triangles
+  //    together where the rim folds tightly over itself (mech-holes-shark s4c6 hole 1293).
+  //    Built again without mending, the patch is the refined triangulation, whose surface is
+  //    the clean triangulation's (refinement splits and flips within coplanar triangles only).
+  // Each step comes only when no other attempt closes the hole: less mending means smaller
+  // angles.
+  std::vector<Attempt> less_mended_attempts;
+  bool less_mended_queued = false;
   for (std::size_t next_attempt = 0;; ++next_attempt) {
-    if (next_attempt == attempts.size() && !fold_keeping_queued) {
-      attempts.insert(attempts.end(), fold_keeping_attempts.begin(), fold_keeping_attempts.end());
-      fold_keeping_queued = true;
+    if (next_attempt == attempts.size() && !less_mended_queued) {
+      attempts.insert(attempts.end(), less_mended_attempts.begin(), less_mended_attempts.end());
+      less_mended_queued = true;
     }
     if (next_attempt == attempts.size()) {
       if (!degenerate_attempt || degenerate_repeated) break;
@@ -1119,7 +1129,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         retried = true;
       }
       const FillMethod method = methods[m];
-      if (!step.accept_degenerate && !step.keep_folds &&
+      if (!step.accept_degenerate && step.mending == Attempt::Mending::Full &&
           (dead[m] || (step.fallback && !refused_fair[m])))
         continue;
       const bool fair = step.fair;
@@ -1172,18 +1182,22 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       // The membrane stays within the rim's convex hull (each coordinate is harmonic; with
       // cotangent weights up to their negative ones across obtuse angles), so it does not
       // balloon: no bulge limit, and no base surface (a fitted one can).
-      std::optional<FillOptions> membrane_options;
+      std::optional<FillOptions> attempt_options;
       if (step.membrane) {
-        membrane_options = options;
-        membrane_options->fairing.continuity = 0;
-        membrane_options->fairing.base_fit_rings = 0;
-        membrane_options->max_fair_bulge = std::numeric_limits<double>::infinity();
+        attempt_options = options;
+        attempt_options->fairing.continuity = 0;
+        attempt_options->fairing.base_fit_rings = 0;
+        attempt_options->max_fair_bulge = std::numeric_limits<double>::infinity();
       }
-      const bool mend_folds =
-          !step.keep_folds && (pass == 1 || method == FillMethod::CreaseSplit || artefact_folds);
+      if (step.mending == Attempt::Mending::None) {
+        attempt_options = options;
+        attempt_options->improve_quality = false;
+      }
+      const bool mend_folds = step.mending == Attempt::Mending::Full &&
+                              (pass == 1 || method == FillMethod::CreaseSplit || artefact_folds);
       std::string refused = build_patch_surface(
           mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces, fair, mend_folds,
-          step.collapse_early, membrane_options ? *membrane_options : options, attempt);
+          step.collapse_early, attempt_options ? *attempt_options : options, attempt);
       if (fair && !step.membrane) last_bulge = attempt.fair_bulge;
       if (whole_hole_fairing(m, fair) && !step.membrane &&
           attempt.fair_bulge > kClearBalloon * options.max_fair_bulge)
@@ -1219,13 +1233,20 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         refused = fair ? "the faired patch would intersect the mesh"
                        : "the new faces would intersect existing faces";
       if (crosses && fair && !step.membrane) crossed_fair[m] = 1;
-      if (crosses && !fair && mend_folds && !fold_keeping_queued &&
-          std::none_of(fold_keeping_attempts.begin(), fold_keeping_attempts.end(),
-                       [&](const Attempt& a) { return a.method == m; })) {
+      if (crosses && !fair && options.improve_quality && step.mending != Attempt::Mending::None) {
         Attempt again = step;
         again.method = m;  // resolved (kFirstCrossed)
-        again.keep_folds = true;
-        fold_keeping_attempts.push_back(again);
+        again.mending = step.mending == Attempt::Mending::Full && mend_folds
+                            ? Attempt::Mending::FoldsKept
+                            : Attempt::Mending::None;
+        if (less_mended_queued) {
+          attempts.push_back(again);
+        } else if (std::none_of(less_mended_attempts.begin(), less_mended_attempts.end(),
+                                [&](const Attempt& a) {
+                                  return a.method == m && a.mending == again.mending;
+                                })) {
+          less_mended_attempts.push_back(again);
+        }
       }
       const double worst_angle = refused.empty() ? min_angle_deg(mesh, faces) : 0.0;
       if (refused.empty() && !step.accept_degenerate && worst_angle < kDegenerateAngleDeg) {
@@ -1242,7 +1263,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
             "stand-in's {:.1f} deg",
             worst_angle, set_aside_flat_angle);
       if (refused.empty() && options.membrane_fallback && !fair && step.fallback && !step.rebuilt &&
-          !step.keep_folds && whole_hole_fairing(m, true) && worst_angle < kRescueBelowDeg) {
+          step.mending == Attempt::Mending::Full && whole_hole_fairing(m, true) &&
+          worst_angle < kRescueBelowDeg) {
         remove_patch(mesh, faces, vertices);
         set_aside_flat_angle = worst_angle;
         Attempt membrane = step;
@@ -1288,9 +1310,11 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       } else {
         attempt.shape_reason = shape_reason;
       }
-      if (step.keep_folds)
+      if (step.mending == Attempt::Mending::FoldsKept)
         attempt.shape_reason +=
             "; the triangulation's folds kept (mended across, the patch crossed the mesh)";
+      else if (step.mending == Attempt::Mending::None)
+        attempt.shape_reason += "; not mended (mended, the patch crossed the mesh)";
       if (attempt.shape == PatchShape::Fair && !attempt.fair_base.empty())
         attempt.shape_reason += fmt::format(
             "; the patch continues the {} fitted to the surroundings", attempt.fair_base);

@@ -61,8 +61,9 @@ struct FillOptions {
   //! 100 MB at 1,000); 0: never.
   std::size_t last_resort_dp_vertices = 1000;
   //! A flat 3D triangulation whose triangles cross the mesh is solved again without them, at
-  //! most this many times (each solve is O(n^3), so large loops get fewer rounds).
-  int max_avoiding_rounds = 16;
+  //! most this many times, within a work budget (the first solve is O(n^3), a later one only
+  //! re-solves the intervals around what it forbade; large loops get fewer rounds).
+  int max_avoiding_rounds = 128;
   bool check_intersections = true;
   //! Methods to try in order; empty = automatic (simple: planar then 3D; complex: piecewise
   //! then 3D; ear clipping, flat, when every other method's patch crosses the mesh).

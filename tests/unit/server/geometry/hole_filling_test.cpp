@@ -6,6 +6,8 @@
 #include <functional>
 #include <numbers>
 #include <random>
+#include <span>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -42,6 +44,19 @@ FillRun fill_and_check(const MeshSoup& soup, const FillOptions& options,
   const std::string problems = check_fill_invariants(before, run.mesh, run.reports, run.holes);
   EXPECT_TRUE(problems.empty()) << problems;
   return run;
+}
+
+//! A shared mesh with the faces whose centroids lie in any of \p balls (centre, radius)
+//! removed, as touchmend-cut-bench cuts it (its --only prints a cut's balls). Empty when the
+//! mesh cannot be read (the test then fails).
+MeshSoup cut_shared_mesh(const std::string& name, std::span<const std::pair<Vec3, double>> balls) {
+  const ReadResult read = read_mesh_file(testing::shared_data_dir() + "/meshes/" + name);
+  EXPECT_TRUE(read.ok) << read.error;
+  if (!read.ok) return {};
+  return remove_faces(read.soup, [&](const Vec3& c) {
+    return std::any_of(balls.begin(), balls.end(),
+                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
+  });
 }
 
 double min_new_angle(const FillRun& run) {
@@ -177,15 +192,10 @@ TEST(FillHole, AFlatStandInUnder15DegreesGivesWayToAMembrane) {
 // whose planar and piecewise patches and ear clipping all cross the mesh. The 3D
 // triangulation of all 410 vertices closes it as a last resort.
 TEST(FillHole, AHoleOverTheTriangulationLimitThatNothingElseClosesGetsItAsALastResort) {
-  const ReadResult read = read_mesh_file(testing::shared_data_dir() + "/meshes/stanford-bunny.obj");
-  ASSERT_TRUE(read.ok) << read.error;
   const std::array<std::pair<Vec3, double>, 2> balls{
       {{Vec3(-0.079272, 0.107765, 0.032001), 0.0149707959},
        {Vec3(-0.057745, 0.076784, -0.019116), 0.0534781316}}};
-  const MeshSoup cut = remove_faces(read.soup, [&](const Vec3& c) {
-    return std::any_of(balls.begin(), balls.end(),
-                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
-  });
+  const MeshSoup cut = cut_shared_mesh("stanford-bunny.obj", balls);
   const auto large_hole = [](const Hole& h) { return h.loop.size() == 410; };
   const FillRun run = fill_and_check(cut, {}, large_hole);
   ASSERT_EQ(run.reports.size(), 1u);
@@ -213,18 +223,13 @@ TEST(FillHole, AHoleOverTheTriangulationLimitThatNothingElseClosesGetsItAsALastR
 // that rim, and every other attempt crosses the mesh too: the flat 3D triangulation is built
 // again with its folds kept, and the hole is closed.
 TEST(FillHole, AFlatPatchWhoseMendingAcrossFoldsCrossesTheMeshIsBuiltAgainWithItsFoldsKept) {
-  const ReadResult read = read_mesh_file(testing::shared_data_dir() + "/meshes/couplingdown.off");
-  ASSERT_TRUE(read.ok) << read.error;
   const std::array<std::pair<Vec3, double>, 5> balls{
       {{Vec3(-0.0162827, -0.478988, -0.174528), 0.197601784},
        {Vec3(-0.143505, -0.221517, -0.028951), 0.206316095},
        {Vec3(-0.0660867, 0.234673, -0.028951), 0.100110516},
        {Vec3(0.0264997, 0.440472, -0.0628931), 0.198419371},
        {Vec3(-0.232812, -0.166766, -0.0330189), 0.183701221}}};
-  const MeshSoup cut = remove_faces(read.soup, [&](const Vec3& c) {
-    return std::any_of(balls.begin(), balls.end(),
-                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
-  });
+  const MeshSoup cut = cut_shared_mesh("couplingdown.off", balls);
   const auto comb_hole = [](const Hole& h) { return h.id == 307 && h.loop.size() == 26; };
   const FillRun run = fill_and_check(cut, {}, comb_hole);
   ASSERT_EQ(run.reports.size(), 1u);
@@ -235,6 +240,55 @@ TEST(FillHole, AFlatPatchWhoseMendingAcrossFoldsCrossesTheMeshIsBuiltAgainWithIt
   EXPECT_NE(r.shape_reason.find("folds kept"), std::string::npos) << r.shape_reason;
   EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
   EXPECT_GT(r.min_angle_deg, 1.0);
+}
+
+// Even with its folds kept, the mending's moves and splits bring two of a patch's own
+// triangles together where the rim folds tightly over itself: two balls cut out of the shark
+// (touchmend-cut-bench --only mech-holes-shark.off:4:6) leave a 162-edge hole whose every
+// patch crosses the mesh or itself. The avoiding 3D triangulation is clean, and built again
+// without mending (the refined triangulation, on the same surface) it closes the hole.
+TEST(FillHole, AFlatPatchThatCrossesTheMeshEvenWithItsFoldsKeptIsBuiltAgainUnmended) {
+  const std::array<std::pair<Vec3, double>, 2> balls{
+      {{Vec3(0.376222998, 0.0702892989, 0.0466743), 0.189236906},
+       {Vec3(0.397763997, 0.178856, 0.212134004), 0.202167484}}};
+  const MeshSoup cut = cut_shared_mesh("mech-holes-shark.off", balls);
+  const auto folded_hole = [](const Hole& h) { return h.loop.size() == 162; };
+  const FillRun run = fill_and_check(cut, {}, folded_hole);
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::MinimumWeight3d);
+  EXPECT_EQ(r.shape, PatchShape::Flat);
+  EXPECT_NE(r.shape_reason.find("not mended"), std::string::npos) << r.shape_reason;
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+}
+
+// Three balls cut out of the coupling (touchmend-cut-bench --only couplingdown.off:1:7) leave
+// a 112-edge hole around a lone triangle the cut left standing (a fragment). Every patch but
+// the avoiding 3D triangulation crosses the mesh, and that one clears it only after more than
+// 16 rounds, each forbidding the triangles that still cross; a round after the first solves
+// only the intervals around them, so the rounds are bounded by their work, not a count.
+TEST(FillHole, TheAvoiding3dTriangulationGetsTheRoundsItsWorkBudgetAllows) {
+  const std::array<std::pair<Vec3, double>, 3> balls{
+      {{Vec3(-0.0471691, -0.196202, 0.0534591), 0.206203909},
+       {Vec3(0.148496, -0.097979, -0.174528), 0.105745664},
+       {Vec3(-0.313944, -0.110366, 0.0546324), 0.0796876764}}};
+  const MeshSoup cut = cut_shared_mesh("couplingdown.off", balls);
+  const auto around_fragment = [](const Hole& h) { return h.loop.size() == 112; };
+  const FillRun run = fill_and_check(cut, {}, around_fragment);
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::MinimumWeight3d);
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+
+  FillOptions sixteen_rounds;
+  sixteen_rounds.max_avoiding_rounds = 16;
+  const FillRun open = fill_and_check(cut, sixteen_rounds, around_fragment);
+  ASSERT_EQ(open.reports.size(), 1u);
+  EXPECT_FALSE(open.reports[0].filled);
+  EXPECT_NE(open.reports[0].reason.find("after 16 rounds"), std::string::npos)
+      << open.reports[0].reason;
 }
 
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
