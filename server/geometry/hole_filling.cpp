@@ -1287,7 +1287,12 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
                                                refused));
           refused_fair[m] = 1;
         } else {
-          failures.push_back(fmt::format("{}: {}", to_string(method), refused));
+          failures.push_back(
+              fmt::format("{}{}: {}", to_string(method),
+                          step.mending == Attempt::Mending::FoldsKept ? " (again, its folds kept)"
+                          : step.mending == Attempt::Mending::None    ? " (again, not mended)"
+                                                                      : "",
+                          refused));
           dead[m] = 1;
         }
         continue;
@@ -1318,6 +1323,13 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (attempt.shape == PatchShape::Fair && !attempt.fair_base.empty())
         attempt.shape_reason += fmt::format(
             "; the patch continues the {} fitted to the surroundings", attempt.fair_base);
+      // A patch left with no vertex of its own (a 3-edge hole, or one whose mending collapsed
+      // every new vertex away) is the rim's triangulation as it is, whatever shape was asked
+      // for: say so, as a fairing or membrane that had nothing to move would mislead.
+      if (vertices.empty()) {
+        attempt.shape = PatchShape::Flat;
+        attempt.shape_reason += "; no vertex inside the patch: the rim's triangulation as it is";
+      }
       attempt.filled = true;
       attempt.reason.clear();
       attempt.faces_added = faces.size();

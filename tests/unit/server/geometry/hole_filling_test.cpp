@@ -539,6 +539,21 @@ TEST(FillHole, ThreeEdgeHoleGetsOneTriangle) {
   EXPECT_TRUE(find_holes(run.mesh).holes.empty());
 }
 
+// On a curved surface the auto shape asks for fairing, but a one-triangle patch has no vertex to
+// move: the report says it is flat, and why.
+TEST(FillHole, AThreeEdgeHoleOnASphereIsReportedAsTheRimsTriangleNotAFairedPatch) {
+  MeshSoup s = testing::uv_sphere(1.0, 24, 12);
+  s.triangles.erase(s.triangles.begin() + static_cast<std::ptrdiff_t>(s.triangles.size() / 2));
+  const FillRun run = fill_and_check(s, {}, [](const Hole& h) { return h.loop.size() == 3; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.faces_added, 1u);
+  EXPECT_EQ(r.vertices_added, 0u);
+  EXPECT_EQ(r.shape, PatchShape::Flat) << r.shape_reason;
+  EXPECT_NE(r.shape_reason.find("no vertex inside the patch"), std::string::npos) << r.shape_reason;
+}
+
 // A three-edge hole whose corners are all but collinear (one moved to a millionth of the
 // hole's size off the opposite edge): its one possible triangle is degenerate. Every method is
 // refused for it, and the first is then repeated and kept: a closed hole with a sliver is more
