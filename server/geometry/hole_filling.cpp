@@ -1106,10 +1106,44 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   //    the clean triangulation's (refinement splits and flips within coplanar triangles only).
   // Each step comes only when no other attempt closes the hole: less mending means smaller
   // angles.
+  // A hole over the 3D triangulation's size limit that no other method could close gets it
+  // anyway, as a last resort: the limit keeps its O(n^3) tables out of fills another method
+  // does well (measured with the limit at 1,000 for every hole on the large random cuts of
+  // seeds 1-3: 11 holes over 400 edges changed method, three to smaller angles, 6.1 -> 3.2° the
+  // worst), while the rising bound makes a solve fast (a 770-edge bunny hole in about 0.3 s).
+  // It comes before the less-mended retries below (its patch is mended and can be faired: the
+  // bunny's 473-edge cut hole, 15.4°), once.
+  bool last_resort_tried = false;
+  const auto try_last_resort = [&]() -> std::optional<HoleFillReport> {
+    if (last_resort_tried) return std::nullopt;
+    last_resort_tried = true;
+    if (!options.methods.empty() || hole.loop.size() <= options.max_dp_vertices ||
+        hole.loop.size() > options.last_resort_dp_vertices)
+      return std::nullopt;
+    FillOptions wide = options;
+    wide.max_dp_vertices = options.last_resort_dp_vertices;
+    wide.methods = {FillMethod::MinimumWeight3d};
+    HoleFillReport last = fill_disk_hole(mesh, hole, wide, reach, /*explain_open=*/false);
+    if (last.filled) {
+      std::vector<std::string> before = failures;
+      before.insert(before.end(), shape_warnings.begin(), shape_warnings.end());
+      last.warnings.push_back(fmt::format(
+          "the methods within the 3D triangulation's {}-vertex limit failed ({}): filled by "
+          "the 3D triangulation of all {} boundary vertices, a last resort",
+          options.max_dp_vertices, fmt::join(before, "; "), hole.loop.size()));
+      last.seconds = seconds_since(start);
+      last.phases += attempt_phases;
+      return last;
+    }
+    failures.push_back(fmt::format("{} over its limit, as a last resort: {}",
+                                   to_string(FillMethod::MinimumWeight3d), last.reason));
+    return std::nullopt;
+  };
   std::vector<Attempt> less_mended_attempts;
   bool less_mended_queued = false;
   for (std::size_t next_attempt = 0;; ++next_attempt) {
     if (next_attempt == attempts.size() && !less_mended_queued) {
+      if (auto last = try_last_resort()) return *last;
       attempts.insert(attempts.end(), less_mended_attempts.begin(), less_mended_attempts.end());
       less_mended_queued = true;
     }
@@ -1360,29 +1394,6 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     }
   }
   failures.insert(failures.end(), shape_warnings.begin(), shape_warnings.end());
-  // A hole over the 3D triangulation's size limit that no other method could close gets it
-  // anyway, as a last resort: the limit keeps its O(n^3) tables out of fills another method
-  // does well (measured with the limit at 1,000 for every hole on the large random cuts of
-  // seeds 1-3: 11 holes over 400 edges changed method, three to smaller angles, 6.1 -> 3.2° the
-  // worst), while the rising bound makes a solve fast (a 770-edge bunny hole in about 0.3 s).
-  if (options.methods.empty() && hole.loop.size() > options.max_dp_vertices &&
-      hole.loop.size() <= options.last_resort_dp_vertices) {
-    FillOptions wide = options;
-    wide.max_dp_vertices = options.last_resort_dp_vertices;
-    wide.methods = {FillMethod::MinimumWeight3d};
-    HoleFillReport last = fill_disk_hole(mesh, hole, wide, reach, /*explain_open=*/false);
-    if (last.filled) {
-      last.warnings.push_back(fmt::format(
-          "the methods within the 3D triangulation's {}-vertex limit failed ({}): filled by "
-          "the 3D triangulation of all {} boundary vertices, a last resort",
-          options.max_dp_vertices, fmt::join(failures, "; "), hole.loop.size()));
-      last.seconds = seconds_since(start);
-      last.phases += attempt_phases;
-      return last;
-    }
-    failures.push_back(fmt::format("{} over its limit, as a last resort: {}",
-                                   to_string(FillMethod::MinimumWeight3d), last.reason));
-  }
   report.phases = attempt_phases;
   report.fair_bulge = last_bulge;
   report.reason =
