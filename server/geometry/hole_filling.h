@@ -78,6 +78,10 @@ struct FillOptions {
   //! edges within two rings of the boundary is below this; otherwise they are a curved surface
   //! with strong bends (a coarse scan) and the patch is faired.
   double piecewise_planar_median_deg = 1.0;
+  //! ... and when at least this fraction of the rim's vertices lie on a plane around the rim
+  //! that reaches across the hole (a part's faces continue past a hole; the facets of a curved
+  //! surface refined by midpoint subdivision, edge by edge as planar, do not). 0: off.
+  double piecewise_planar_min_planes_across = 0.15;
   //! On by default: a hole that a crease crosses is filled split along it (measured closer to
   //! the ground truth on every case where creases are found; README "How holes are filled").
   SharpMode sharp = SharpMode::Auto;

@@ -303,6 +303,66 @@ TEST(FlatShape, CurvedHolesAreMendedAcrossTheTriangulationsFolds) {
   }
 }
 
+// Midpoint subdivision splits every triangle into coplanar ones, so spot subdivided twice is
+// planar edge by edge (median dihedral 0) like a CAD part, and its 236-edge hole (59 on spot)
+// meets two edges over 35°: it used to be filled flat along its 3D triangulation, with slivers.
+// Its planes are spot's triangles, far smaller than the hole, and none reaches across it: the
+// patch is faired, as on spot itself.
+TEST(AutoShape, AFinelyFacetedCurvedSurfaceIsNotTakenForACadPart) {
+  std::string error;
+  const auto c = testing::load_case("spot_sml", error);
+  ASSERT_TRUE(c) << error;
+  const geometry::MeshSoup subdivided =
+      testing::subdivide_midpoint(testing::subdivide_midpoint(c->holed));
+  const testing::CaseHole* case_hole = nullptr;
+  for (const auto& ch : c->holes)
+    if (ch.loop_holed.size() == 59) case_hole = &ch;
+  ASSERT_NE(case_hole, nullptr);
+  const auto fill = [&](const FillOptions& options) {
+    Mesh mesh = build_mesh(subdivided).mesh;
+    const auto holes = find_holes(mesh).holes;
+    const testing::Snapshot before = testing::take_snapshot(mesh);
+    std::vector<HoleFillReport> reports;
+    for (const Hole& h : holes)
+      if (h.loop.size() == 4 * 59) reports.push_back(fill_hole(mesh, h, options));
+    EXPECT_EQ(reports.size(), 1u);
+    const std::string problems = testing::check_fill_invariants(before, mesh, reports, holes);
+    EXPECT_TRUE(problems.empty()) << problems;
+    if (reports.empty()) return std::make_pair(HoleFillReport{}, testing::HoleScore{});
+    return std::make_pair(reports[0], testing::score_fill(mesh, reports[0], *c, *case_hole));
+  };
+  const auto [faired, faired_score] = fill({});
+  ASSERT_TRUE(faired.filled) << faired.reason;
+  EXPECT_EQ(faired.shape, PatchShape::Fair) << faired.shape_reason;
+  EXPECT_NE(faired.shape_reason.find("finely faceted"), std::string::npos) << faired.shape_reason;
+  EXPECT_GE(faired_score.quality.min_angle_deg, 15.0);
+
+  FillOptions as_before;
+  as_before.piecewise_planar_min_planes_across = 0;  // median dihedral alone
+  const auto [flat, flat_score] = fill(as_before);
+  ASSERT_TRUE(flat.filled) << flat.reason;
+  EXPECT_EQ(flat.shape, PatchShape::Flat) << flat.shape_reason;
+  EXPECT_LT(faired_score.mean_permille, flat_score.mean_permille);
+  EXPECT_GT(faired_score.quality.min_angle_deg, flat_score.quality.min_angle_deg);
+}
+
+// Fandisk subdivided once is as planar edge by edge, but its faces continue across its holes
+// (82% and 85% of the rim vertices lie on a plane that reaches across): they stay flat.
+TEST(AutoShape, ASubdividedCadPartStaysPiecewisePlanar) {
+  std::string error;
+  const auto c = testing::load_case("fandisk_sml", error);
+  ASSERT_TRUE(c) << error;
+  Mesh mesh = build_mesh(testing::subdivide_midpoint(c->holed)).mesh;
+  const auto holes = find_holes(mesh).holes;
+  const FillReport report = fill_holes(mesh, {}, {});
+  ASSERT_EQ(report.holes.size(), 3u);
+  for (const HoleFillReport& r : report.holes) {
+    ASSERT_TRUE(r.filled) << r.reason;
+    EXPECT_EQ(r.shape, PatchShape::Flat) << r.hole_id << ": " << r.shape_reason;
+    EXPECT_EQ(r.shape_reason.find("finely faceted"), std::string::npos) << r.shape_reason;
+  }
+}
+
 // Picks no operator would make on spot's 23-edge hole (found by random picks): chord tangents
 // with k of 3.6 and 4.6 put two curtain vertices at nearly the same place along the curve, and
 // the push-down laid them 0.0003 apart, leaving a 0.03° needle. The result is refused with the
