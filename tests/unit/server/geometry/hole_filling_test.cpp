@@ -8,6 +8,7 @@
 #include <random>
 #include <span>
 #include <string>
+#include <string_view>
 
 #include <gtest/gtest.h>
 
@@ -57,6 +58,27 @@ MeshSoup cut_shared_mesh(const std::string& name, std::span<const std::pair<Vec3
     return std::any_of(balls.begin(), balls.end(),
                        [&](const auto& b) { return (c - b.first).norm() < b.second; });
   });
+}
+
+//! \p run filled its one hole flat with the 3D triangulation, crossing nothing, and the shape
+//! reason says \p how (when not empty).
+void expect_clean_3d_fill(const FillRun& run, std::string_view how) {
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::MinimumWeight3d);
+  EXPECT_EQ(r.shape, PatchShape::Flat) << r.shape_reason;
+  if (!how.empty()) {
+    EXPECT_NE(r.shape_reason.find(how), std::string::npos) << r.shape_reason;
+  }
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+}
+
+//! \p run left its one hole open, saying \p why.
+void expect_left_open(const FillRun& run, std::string_view why) {
+  ASSERT_EQ(run.reports.size(), 1u);
+  EXPECT_FALSE(run.reports[0].filled);
+  EXPECT_NE(run.reports[0].reason.find(why), std::string::npos) << run.reports[0].reason;
 }
 
 double min_new_angle(const FillRun& run) {
@@ -212,11 +234,7 @@ TEST(FillHole, AHoleOverTheTriangulationLimitThatNothingElseClosesGetsItAsALastR
 
   FillOptions no_last_resort;
   no_last_resort.last_resort_dp_vertices = 0;
-  const FillRun open = fill_and_check(cut, no_last_resort, large_hole);
-  ASSERT_EQ(open.reports.size(), 1u);
-  EXPECT_FALSE(open.reports[0].filled);
-  EXPECT_NE(open.reports[0].reason.find("exceed its limit of 400"), std::string::npos)
-      << open.reports[0].reason;
+  expect_left_open(fill_and_check(cut, no_last_resort, large_hole), "exceed its limit of 400");
 }
 
 // Five balls cut out of the coupling (touchmend-cut-bench --only couplingdown.off:1:6) leave a
@@ -235,14 +253,9 @@ TEST(FillHole, AFlatPatchWhoseMendingAcrossFoldsCrossesTheMeshIsBuiltAgainWithIt
   const MeshSoup cut = cut_shared_mesh("couplingdown.off", balls);
   const auto comb_hole = [](const Hole& h) { return h.id == 307 && h.loop.size() == 26; };
   const FillRun run = fill_and_check(cut, {}, comb_hole);
+  expect_clean_3d_fill(run, "folds kept");
   ASSERT_EQ(run.reports.size(), 1u);
-  const HoleFillReport& r = run.reports[0];
-  ASSERT_TRUE(r.filled) << r.reason;
-  EXPECT_EQ(r.method, FillMethod::MinimumWeight3d);
-  EXPECT_EQ(r.shape, PatchShape::Flat);
-  EXPECT_NE(r.shape_reason.find("folds kept"), std::string::npos) << r.shape_reason;
-  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
-  EXPECT_GT(r.min_angle_deg, 1.0);
+  EXPECT_GT(run.reports[0].min_angle_deg, 1.0);
 }
 
 // Even with its folds kept, the mending's moves and splits bring two of a patch's own
@@ -256,14 +269,7 @@ TEST(FillHole, AFlatPatchThatCrossesTheMeshEvenWithItsFoldsKeptIsBuiltAgainUnmen
        {Vec3(0.397763997, 0.178856, 0.212134004), 0.202167484}}};
   const MeshSoup cut = cut_shared_mesh("mech-holes-shark.off", balls);
   const auto folded_hole = [](const Hole& h) { return h.loop.size() == 162; };
-  const FillRun run = fill_and_check(cut, {}, folded_hole);
-  ASSERT_EQ(run.reports.size(), 1u);
-  const HoleFillReport& r = run.reports[0];
-  ASSERT_TRUE(r.filled) << r.reason;
-  EXPECT_EQ(r.method, FillMethod::MinimumWeight3d);
-  EXPECT_EQ(r.shape, PatchShape::Flat);
-  EXPECT_NE(r.shape_reason.find("not mended"), std::string::npos) << r.shape_reason;
-  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+  expect_clean_3d_fill(fill_and_check(cut, {}, folded_hole), "not mended");
 }
 
 // Three balls cut out of the coupling (touchmend-cut-bench --only couplingdown.off:1:7) leave
@@ -278,20 +284,11 @@ TEST(FillHole, TheAvoiding3dTriangulationGetsTheRoundsItsWorkBudgetAllows) {
        {Vec3(-0.313944, -0.110366, 0.0546324), 0.0796876764}}};
   const MeshSoup cut = cut_shared_mesh("couplingdown.off", balls);
   const auto around_fragment = [](const Hole& h) { return h.loop.size() == 112; };
-  const FillRun run = fill_and_check(cut, {}, around_fragment);
-  ASSERT_EQ(run.reports.size(), 1u);
-  const HoleFillReport& r = run.reports[0];
-  ASSERT_TRUE(r.filled) << r.reason;
-  EXPECT_EQ(r.method, FillMethod::MinimumWeight3d);
-  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+  expect_clean_3d_fill(fill_and_check(cut, {}, around_fragment), "");
 
   FillOptions sixteen_rounds;
   sixteen_rounds.max_avoiding_rounds = 16;
-  const FillRun open = fill_and_check(cut, sixteen_rounds, around_fragment);
-  ASSERT_EQ(open.reports.size(), 1u);
-  EXPECT_FALSE(open.reports[0].filled);
-  EXPECT_NE(open.reports[0].reason.find("after 16 rounds"), std::string::npos)
-      << open.reports[0].reason;
+  expect_left_open(fill_and_check(cut, sixteen_rounds, around_fragment), "after 16 rounds");
 }
 
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
