@@ -1183,19 +1183,6 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // (FillOptions::membrane_fallback), which the 3D mending can give that angle; the one with
   // the larger smallest angle is kept.
   double set_aside_flat_angle = -1;
-  // A flat patch can cross the mesh although its triangulation is clean (the avoiding 3D
-  // triangulation, a planar one that no face pokes through): the mending moved its surface.
-  //  - A flip across one of the triangulation's folds (a stand-in, a crease split's region, a
-  //    flat patch over curved surroundings) moves the surface onto a face just off the rim (a
-  //    cut across a CAD wall's foot, couplingdown s1c6 hole 307: the 3D triangulation clears
-  //    the faces of a neighbouring hole's rim, the flip through them does not). Built again
-  //    with its folds kept, its mending only flips and moves within coplanar triangles.
-  //  - Even so, the mending's moves and splits can bring two of the patch's own triangles
-  //    together where the rim folds tightly over itself (mech-holes-shark s4c6 hole 1293).
-  //    Built again without mending, the patch is the refined triangulation, whose surface is
-  //    the clean triangulation's (refinement splits and flips within coplanar triangles only).
-  // Each step comes only when no other attempt closes the hole: less mending means smaller
-  // angles.
   // A hole over the 3D triangulation's size limit that no other method could close gets it
   // anyway, as a last resort: the limit keeps its O(n^3) tables out of fills another method
   // does well (measured with the limit at 1,000 for every hole on the large random cuts of
@@ -1229,6 +1216,19 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
                                    to_string(FillMethod::MinimumWeight3d), last.reason));
     return std::nullopt;
   };
+  // A flat patch can cross the mesh although its triangulation is clean (the avoiding 3D
+  // triangulation, a planar one that no face pokes through): the mending moved its surface.
+  //  - A flip across one of the triangulation's folds (a stand-in, a crease split's region, a
+  //    flat patch over curved surroundings) moves the surface onto a face just off the rim (a
+  //    cut across a CAD wall's foot, couplingdown s1c6 hole 307: the 3D triangulation clears
+  //    the faces of a neighbouring hole's rim, the flip through them does not). Built again
+  //    with its folds kept, its mending only flips and moves within coplanar triangles.
+  //  - Even so, the mending's moves and splits can bring two of the patch's own triangles
+  //    together where the rim folds tightly over itself (mech-holes-shark s4c6 hole 1293).
+  //    Built again without mending, the patch is the refined triangulation, whose surface is
+  //    the clean triangulation's (refinement splits and flips within coplanar triangles only).
+  // Each step comes only when no other attempt closes the hole: less mending means smaller
+  // angles.
   std::vector<Attempt> less_mended_attempts;
   bool less_mended_queued = false;
   for (std::size_t next_attempt = 0;; ++next_attempt) {
