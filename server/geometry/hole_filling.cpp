@@ -1070,9 +1070,40 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     methods = {FillMethod::Planar, FillMethod::MinimumWeight3d};
   else
     methods = {FillMethod::Piecewise, FillMethod::MinimumWeight3d};
-  if (creases && !creases->curves.empty() && options.methods.empty())
+  // The crease split along every curve of the plan first; when it cannot be made (its patch
+  // crosses the mesh, a region cannot be filled), along fewer: the least certain curve taken out
+  // each time (plan_without_weakest_curve), up to FillOptions::crease_split_retries times,
+  // before any whole-hole method. A split along the creases that are surely there keeps them,
+  // which a whole-hole patch cannot. Picked curves are the operator's: all of them or none.
+  std::vector<HoleCreasePlan> fewer_curves;
+  if (creases && !creases->curves.empty() && options.methods.empty()) {
     methods.insert(methods.begin(), FillMethod::CreaseSplit);
+    const int retries = options.explicit_creases ? 0 : options.crease_split_retries;
+    for (int k = 0; k < retries; ++k) {
+      std::optional<HoleCreasePlan> fewer =
+          plan_without_weakest_curve(k == 0 ? *creases : fewer_curves.back(), options.creases);
+      if (!fewer) break;
+      fewer_curves.push_back(std::move(*fewer));
+      methods.insert(methods.begin() + k + 1, FillMethod::CreaseSplit);
+    }
+  }
   if (options.methods.empty()) methods.push_back(FillMethod::EarClipping);
+  // Each method's plan of creases (a crease split's), and its name in the report.
+  const auto plan_of = [&](std::size_t m) -> const HoleCreasePlan* {
+    if (!creases) return nullptr;
+    return methods[m] == FillMethod::CreaseSplit && m >= 1 && m <= fewer_curves.size()
+               ? &fewer_curves[m - 1]
+               : &*creases;
+  };
+  const auto curve_count = [](const HoleCreasePlan& plan) {
+    return plan.curves.size() + plan.corner_links.size();
+  };
+  const auto method_name = [&](std::size_t m) {
+    const HoleCreasePlan* plan = plan_of(m);
+    if (plan == nullptr || plan == &*creases) return std::string(to_string(methods[m]));
+    return fmt::format("{} ({} of {} curves)", to_string(methods[m]), curve_count(*plan),
+                       curve_count(*creases));
+  };
 
   std::vector<std::string> failures;
   std::vector<std::string> shape_warnings;
@@ -1262,7 +1293,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
           whole_hole_fairing(m, fair)) {
         shape_warnings.push_back(
             fmt::format("{}: not faired (a faired patch of this hole rose {:.2f} hole radii)",
-                        to_string(method), balloon_bulge));
+                        method_name(m), balloon_bulge));
         refused_fair[m] = 1;
         continue;
       }
@@ -1273,17 +1304,17 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (!topology) {
         if (method == FillMethod::MinimumWeight3d && hole.loop.size() > options.max_dp_vertices) {
           failures.push_back(fmt::format("{}: {} boundary vertices exceed its limit of {}",
-                                         to_string(method), hole.loop.size(),
+                                         method_name(m), hole.loop.size(),
                                          options.max_dp_vertices));
           dead[m] = 1;
           continue;
         }
         const auto t0 = Clock::now();
-        topology = triangulate(method, mesh, hole, loop, options, region_index, reach,
-                               creases ? &*creases : nullptr, dp_tables, avoid);
+        topology = triangulate(method, mesh, hole, loop, options, region_index, reach, plan_of(m),
+                               dp_tables, avoid);
         attempt_phases.triangulate += seconds_since(t0);
         if (!topology->ok) {
-          failures.push_back(fmt::format("{}: {}", to_string(method), topology->failure));
+          failures.push_back(fmt::format("{}: {}", method_name(m), topology->failure));
           dead[m] = 1;
           continue;
         }
@@ -1295,7 +1326,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       std::vector<int> face_regions;
       std::string why;
       if (!insert_patch(mesh, hole, patch, faces, vertices, face_pieces, why)) {
-        failures.push_back(fmt::format("{}: {}", to_string(method), why));
+        failures.push_back(fmt::format("{}: {}", method_name(m), why));
         dead[m] = 1;
         continue;
       }
@@ -1404,7 +1435,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (!refused.empty()) {
         remove_patch(mesh, faces, vertices);
         if (fair) {
-          shape_warnings.push_back(fmt::format("{}{}: {}", to_string(method),
+          shape_warnings.push_back(fmt::format("{}{}: {}", method_name(m),
                                                step.collapse_early
                                                    ? " (again, crowded vertices collapsed)"
                                                : step.membrane ? " (a membrane)"
@@ -1413,7 +1444,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
           refused_fair[m] = 1;
         } else {
           failures.push_back(
-              fmt::format("{}{}: {}", to_string(method),
+              fmt::format("{}{}: {}", method_name(m),
                           step.mending == Attempt::Mending::FoldsKept ? " (again, its folds kept)"
                           : step.mending == Attempt::Mending::None    ? " (again, not mended)"
                                                                       : "",
@@ -1424,10 +1455,17 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       }
       if (method == FillMethod::CreaseSplit) {
         // The straight creases between corners are split along as well.
-        attempt.crease_curves = creases->curves.size() + creases->corner_links.size();
+        const HoleCreasePlan& plan = *plan_of(m);
+        attempt.crease_curves = curve_count(plan);
         attempt.shape_reason =
             fmt::format("split along {} crease curve{} ({})", attempt.crease_curves,
-                        attempt.crease_curves == 1 ? "" : "s", creases->summary);
+                        attempt.crease_curves == 1 ? "" : "s", plan.summary);
+        attempt.creases = plan.summary;
+        if (&plan != &*creases)
+          attempt.shape_reason += fmt::format(
+              "; the split along all {} curves of the plan ({}) could not be made, the least "
+              "certain were left out",
+              curve_count(*creases), creases->summary);
       } else if (step.membrane) {
         attempt.shape_reason = fmt::format(
             "a membrane: the thin plate chosen for {} was refused, and the flat stand-in's "
@@ -1474,7 +1512,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         attempt.warnings.push_back(fmt::format(
             "no attempt closes the hole without a degenerate triangle: kept the first ({}, "
             "smallest angle {:.3f}°)",
-            to_string(method), worst_angle));
+            method_name(m), worst_angle));
       if (!failures.empty())
         attempt.warnings.push_back("earlier methods failed: " +
                                    fmt::format("{}", fmt::join(failures, "; ")));

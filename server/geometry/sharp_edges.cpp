@@ -1068,6 +1068,19 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
   return true;
 }
 
+namespace {
+
+//! "N crease crossings, K curves[ meeting at ...][, U unmatched]": the straight creases between
+//! corners count as curves.
+std::string plan_summary(const HoleCreasePlan& plan) {
+  return fmt::format(
+      "{} crease crossings, {} curves{}{}", plan.crossings.size(),
+      plan.curves.size() + plan.corner_links.size(), meeting_at_corners(plan.corners.size()),
+      plan.unmatched.empty() ? "" : fmt::format(", {} unmatched", plan.unmatched.size()));
+}
+
+}  // namespace
+
 HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const CreaseOptions& options) {
   HoleCreasePlan plan;
   const std::size_t n = hole.loop.size();
@@ -1242,17 +1255,17 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
         c.score = arc_score;
         c.arc = arc;
       }
-      // A crease that followed the rim pairs only along an arc: a ring (a boss's or a bore's
-      // edge) that runs along the rim and then cuts across, which the plain fill cannot follow.
-      // A straight crease that leaves the rim crosses a notch to the opposite rim, where the
-      // plain fill's rim-to-rim edge already lies on it (fandisk_sml #1); its fitted tangents
-      // only add noise there.
-      // Unless both tangents lie along the chord (a part's straight edge): then the chord is
-      // the crease, and the curve is the chord.
-      if ((ca.rim_run > 0 || cb.rim_run > 0) && !c.arc) {
-        if (c.score > options.rim_corner_angle_deg * kDeg) continue;
+      // A crease that followed the rim: a ring (a boss's or a bore's edge) that runs along the
+      // rim and then cuts across pairs along its arc (above). When both tangents lie along the
+      // chord, the crease is straight and crosses a notch to the opposite rim, where the plain
+      // fill's rim-to-rim edge already lies on it (fandisk_sml #1): the curve is the chord
+      // itself, since fitted tangents would only add noise there. Otherwise its Hermite curve
+      // joins the pair as any other: a crease that bends and then runs straight fits no arc
+      // (fandisk's top edge, random cut s3c6 hole 1796: 56° of arc, then straight to the rim;
+      // left unpaired, the 3D triangulation folded across it with 3.5° slivers).
+      if ((ca.rim_run > 0 || cb.rim_run > 0) && !c.arc &&
+          c.score <= options.rim_corner_angle_deg * kDeg)
         c.straight = true;
-      }
       if (c.arc) {
         for (int k = 0; k <= 16; ++k) c.path.push_back(c.arc->at(k / 16.0));
       } else {
@@ -1370,6 +1383,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     if (!r.curve) continue;
     curve.curve = *r.curve;
     curve.arc = p.arc;
+    curve.misfit = p.score;
     if (curve.arc) {
       const std::vector<ArcPiece> pieces =
           arc_pieces_across(*curve.arc, ca.loop_index, cb.loop_index, rim, hole.mean_edge_length);
@@ -1415,6 +1429,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
           if (!hr.curve) continue;
           piece_curve.curve = *hr.curve;
           piece_curve.arc = part;
+          piece_curve.misfit = p.score;
           plan.curves.push_back(piece_curve);
         }
         continue;
@@ -1437,16 +1452,48 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
                            options.corner_tolerance * diameter, options.rim_corner_angle_deg * kDeg,
                            fit_length, options.hermite, tolerance);
   plan.unmatched = left;
-  plan.summary = fmt::format("{} crease crossings, {} curves{}{}", plan.crossings.size(),
-                             plan.curves.size() + plan.corner_links.size(),
-                             meeting_at_corners(plan.corners.size()),
-                             left.empty() ? "" : fmt::format(", {} unmatched", left.size()));
+  plan.summary = plan_summary(plan);
   return plan;
 }
 
 std::string meeting_at_corners(std::size_t corners) {
   if (corners == 0) return "";
   return corners == 1 ? " meeting at a corner" : fmt::format(" meeting at {} corners", corners);
+}
+
+std::optional<HoleCreasePlan> plan_without_weakest_curve(const HoleCreasePlan& plan,
+                                                         const CreaseOptions& options) {
+  // The pairs by misfit (corner creases have none); a loose one goes before the corners.
+  std::optional<std::size_t> worst;
+  for (std::size_t i = 0; i < plan.curves.size(); ++i)
+    if (plan.curves[i].to && (!worst || plan.curves[i].misfit > plan.curves[*worst].misfit))
+      worst = i;
+  const bool loose_pair = worst && plan.curves[*worst].misfit > options.pair_angle_deg * kDeg;
+  HoleCreasePlan out = plan;
+  if (!plan.corners.empty() && !loose_pair) {
+    // The corners go together: two or three in a row are one structure of creases.
+    std::erase_if(out.curves, [](const CreaseCurve& c) { return !c.to; });
+    out.corners.clear();
+    out.corner_links.clear();
+  } else if (worst) {
+    out.curves.erase(out.curves.begin() + static_cast<std::ptrdiff_t>(*worst));
+  } else {
+    return std::nullopt;
+  }
+  if (out.curves.empty()) return std::nullopt;
+  // Every crossing no curve uses now is left over, as the plan reports its unmatched ones.
+  std::vector<char> used(out.crossings.size(), 0);
+  for (const CreaseCurve& c : out.curves) {
+    used[c.from] = 1;
+    if (c.to) used[*c.to] = 1;
+  }
+  for (const CreaseCurve& c : plan.curves)
+    for (const std::optional<std::size_t> end : {std::optional<std::size_t>(c.from), c.to})
+      if (end && !used[*end] &&
+          std::find(out.unmatched.begin(), out.unmatched.end(), *end) == out.unmatched.end())
+        out.unmatched.push_back(*end);
+  out.summary = plan_summary(out);
+  return out;
 }
 
 std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& plan,

@@ -32,10 +32,12 @@
 //! of its own (a boss's top edge the hole cuts short). The rim is followed while each next
 //! boundary vertex lies on the crease's continuation (tangent and curvature fitted by the rim,
 //! within a quarter edge); where the rim turns away the crease crosses, unless it goes on
-//! outside the hole there. Such a crossing pairs only along an arc (of at least
-//! `rim_run_min_arc_turn_deg`): a straight crease that leaves the rim crosses a notch, which the
-//! plain fill spans on the crease already. Of two pairs whose curves meet inside the hole only
-//! the better is joined: the split along both would not be manifold.
+//! outside the hole there. Such a crossing pairs along an arc (of at least
+//! `rim_run_min_arc_turn_deg`), along the chord when both tangents lie on it (a straight crease
+//! crossing a notch, which the plain fill spans on the crease already), or by a Hermite curve
+//! like any other pair (a crease that bends and then runs straight, which no arc fits). Of two
+//! pairs whose curves meet inside the hole only the better is joined: the split along both
+//! would not be manifold.
 
 #include <array>
 #include <functional>
@@ -169,6 +171,9 @@ struct CreaseCurve {
   //! A curved crease's arc (crease_arc_between): when set, the curve through the hole is this
   //! arc, and `curve` the Hermite curve of the same four points (for a preview that draws one).
   std::optional<CreaseArc> arc;
+  //! How far the pair's tangents stray from the curve joining them (radians; the larger of the
+  //! two ends, as the plan ranked the pairs); 0 for a crease that ends at a corner.
+  double misfit = 0;
 };
 
 struct HoleCreasePlan {
@@ -193,6 +198,14 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
 
 //! " meeting at a corner", " meeting at N corners", or nothing for none: for plan summaries.
 std::string meeting_at_corners(std::size_t corners);
+
+//! The plan with its least certain curve taken out, for a crease split that could not be made
+//! with them all (its patch crossed the mesh, or its regions could not be filled): a pair
+//! joined only loosely (tangents over `options.pair_angle_deg` off its curve) first, the one
+//! that strays most; else the corners with every crease and link to them; else the pair that
+//! strays most. The crossings it used are reported unmatched. None when no curve would be left.
+std::optional<HoleCreasePlan> plan_without_weakest_curve(const HoleCreasePlan& plan,
+                                                         const CreaseOptions& options = {});
 
 //! Extends the creases of \p crossings (indices into plan.crossings, three or more) to a common
 //! corner: the least-squares nearest point to their tangent lines, which must lie ahead of every

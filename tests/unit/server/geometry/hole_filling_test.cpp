@@ -50,14 +50,28 @@ FillRun fill_and_check(const MeshSoup& soup, const FillOptions& options,
 //! A shared mesh with the faces whose centroids lie in any of \p balls (centre, radius)
 //! removed, as touchmend-cut-bench cuts it (its --only prints a cut's balls). Empty when the
 //! mesh cannot be read (the test then fails).
-MeshSoup cut_shared_mesh(const std::string& name, std::span<const std::pair<Vec3, double>> balls) {
+//! The removed faces go to \p removed when given.
+MeshSoup cut_shared_mesh(const std::string& name, std::span<const std::pair<Vec3, double>> balls,
+                         std::vector<TrianglePoints>* removed = nullptr) {
   const ReadResult read = read_mesh_file(testing::shared_data_dir() + "/meshes/" + name);
   EXPECT_TRUE(read.ok) << read.error;
   if (!read.ok) return {};
-  return remove_faces(read.soup, [&](const Vec3& c) {
-    return std::any_of(balls.begin(), balls.end(),
-                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
-  });
+  return remove_faces(
+      read.soup,
+      [&](const Vec3& c) {
+        return std::any_of(balls.begin(), balls.end(),
+                           [&](const auto& b) { return (c - b.first).norm() < b.second; });
+      },
+      removed);
+}
+
+//! The mean distance from the new faces of \p report to \p truth (the faces a cut removed),
+//! over \p diagonal (the mesh's bounding-box diagonal).
+double mean_distance_to(const FillRun& run, const HoleFillReport& report,
+                        const std::vector<TrianglePoints>& truth, double diagonal) {
+  return surface_distance(face_triangles(run.mesh, report.new_faces), truth, 1e-3 * diagonal)
+             .mean_a_to_b /
+         diagonal;
 }
 
 //! \p run filled its one hole flat with the 3D triangulation, crossing nothing, and the shape
@@ -289,6 +303,69 @@ TEST(FillHole, TheAvoiding3dTriangulationGetsTheRoundsItsWorkBudgetAllows) {
   FillOptions sixteen_rounds;
   sixteen_rounds.max_avoiding_rounds = 16;
   expect_left_open(fill_and_check(cut, sixteen_rounds, around_fragment), "after 16 rounds");
+}
+
+// Two balls cut out of fandisk's top (touchmend-cut-bench --only fandisk.obj:6:5) leave a
+// 95-edge hole that two creases cross, each a convex edge that runs along a rim edge before it
+// enters the hole. Such crossings used to pair only along an arc or a chord they both lie on;
+// these creases fit neither, so all four crossings were left unmatched and the 3D
+// triangulation folded across the creases (3.0° slivers, 11.0‰ of the diagonal from the
+// removed faces). Paired by Hermite curves, the split keeps both creases.
+TEST(FillHole, CreasesThatRunAlongTheRimFirstArePairedByHermiteCurves) {
+  const std::array<std::pair<Vec3, double>, 2> balls{
+      {{Vec3(2.79692, 16.122801, 0), 0.349043732}, {Vec3(2.42129, 16.3468, 0), 0.87998747}}};
+  std::vector<TrianglePoints> truth;
+  const MeshSoup cut = cut_shared_mesh("fandisk.obj", balls, &truth);
+  const auto top_hole = [](const Hole& h) { return h.loop.size() == 95; };
+  const FillRun run = fill_and_check(cut, {}, top_hole);
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.crease_curves, 2u) << r.creases;
+  EXPECT_EQ(r.creases.find("unmatched"), std::string::npos) << r.creases;
+  EXPECT_GE(r.min_angle_deg, 15.0);
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+  const double diagonal = 7.6156;  // fandisk's bounding-box diagonal (rounded)
+  EXPECT_LT(mean_distance_to(run, r, truth, diagonal), 1e-3);
+}
+
+// Four balls cut out of the coupling (touchmend-cut-bench --only couplingdown.off:7:1) leave a
+// 34-edge hole whose plan joins four crease curves. The split along all four, and along the
+// three left without the least certain, crosses the mesh; along the two most certain it is
+// made. Without those retries the hole went to the whole-hole methods, whose faired 3D
+// triangulation lay 54.6‰ of the diagonal from the removed faces on average.
+TEST(FillHole, ACreaseSplitThatCannotBeMadeIsTriedAgainWithFewerCurves) {
+  const std::array<std::pair<Vec3, double>, 4> balls{
+      {{Vec3(0.0319323, -0.214538, -0.174528), 0.199290607},
+       {Vec3(-0.0325057, -0.40641, 0.157233), 0.171796814},
+       {Vec3(0.471698, 0, -0.174528), 0.210126349},
+       {Vec3(0.112817, -0.19864, 0.0534591), 0.0950789782}}};
+  std::vector<TrianglePoints> truth;
+  const MeshSoup cut = cut_shared_mesh("couplingdown.off", balls, &truth);
+  const auto hole_344 = [](const Hole& h) { return h.id == 344 && h.loop.size() == 34; };
+  const double diagonal = 1.4605;  // the coupling's bounding-box diagonal (rounded)
+  const FillRun run = fill_and_check(cut, {}, hole_344);
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.shape_reason;
+  EXPECT_EQ(r.crease_curves, 2u) << r.creases;
+  EXPECT_NE(r.shape_reason.find("the split along all 4 curves of the plan"), std::string::npos)
+      << r.shape_reason;
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings.back().find("crease-split (3 of 4 curves)"), std::string::npos)
+      << r.warnings.back();
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+  EXPECT_LT(mean_distance_to(run, r, truth, diagonal), 0.005);
+
+  FillOptions whole_plan_only;
+  whole_plan_only.crease_split_retries = 0;
+  const FillRun whole = fill_and_check(cut, whole_plan_only, hole_344);
+  ASSERT_EQ(whole.reports.size(), 1u);
+  ASSERT_TRUE(whole.reports[0].filled) << whole.reports[0].reason;
+  EXPECT_NE(whole.reports[0].method, FillMethod::CreaseSplit);
+  EXPECT_GT(mean_distance_to(whole, whole.reports[0], truth, diagonal), 0.02);
 }
 
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {

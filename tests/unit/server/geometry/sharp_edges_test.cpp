@@ -222,6 +222,54 @@ TEST(SharpEdges, BentCreasesMeetingInPairsGetTheirTwoCornersExactly) {
   EXPECT_EQ(plan.curves.size(), 4u);
 }
 
+// When a split along every curve of a plan cannot be made, the curves are taken out least
+// certain first: a loosely joined pair (its tangents over CreaseOptions::pair_angle_deg off its
+// curve), then the corners with their creases, then the pair that strays most; the crossings
+// freed are reported unmatched, and a plan is not reduced to no curve at all.
+TEST(SharpEdges, ThePlanLosesItsLeastCertainCurveFirst) {
+  const double degree = std::numbers::pi / 180;
+  HoleCreasePlan plan;
+  for (std::size_t i = 0; i < 7; ++i) {
+    CreaseCrossing c;
+    c.loop_index = 3 * i;
+    plan.crossings.push_back(c);
+  }
+  const auto pair = [&](std::size_t a, std::size_t b, double misfit_deg) {
+    CreaseCurve c;
+    c.from = a;
+    c.to = b;
+    c.misfit = misfit_deg * degree;
+    plan.curves.push_back(c);
+  };
+  pair(0, 1, 10);
+  pair(2, 3, 40);  // loose
+  plan.corners = {Vec3(0, 0, 0)};
+  for (const std::size_t from : {4u, 5u, 6u}) {  // three creases meet at the corner
+    CreaseCurve c;
+    c.from = from;
+    c.corner = 0;
+    plan.curves.push_back(c);
+  }
+  const CreaseOptions options;  // pair_angle_deg 35
+
+  const auto first = plan_without_weakest_curve(plan, options);
+  ASSERT_TRUE(first);
+  ASSERT_EQ(first->curves.size(), 4u);
+  EXPECT_EQ(first->corners.size(), 1u);
+  EXPECT_EQ(first->unmatched, (std::vector<std::size_t>{2, 3}));
+  EXPECT_EQ(first->summary, "7 crease crossings, 4 curves meeting at a corner, 2 unmatched");
+
+  const auto second = plan_without_weakest_curve(*first, options);
+  ASSERT_TRUE(second);
+  ASSERT_EQ(second->curves.size(), 1u);
+  EXPECT_EQ(second->curves[0].from, 0u);
+  EXPECT_TRUE(second->corners.empty());
+  EXPECT_EQ(second->unmatched, (std::vector<std::size_t>{2, 3, 4, 5, 6}));
+  EXPECT_EQ(second->summary, "7 crease crossings, 1 curves, 5 unmatched");
+
+  EXPECT_FALSE(plan_without_weakest_curve(*second, options));
+}
+
 // A 45 deg fold across a hole (a chamfer of a CAD part): below the crease angle of 50 deg, but
 // every other edge at the crossings is flat, so the crossings count as strong and are joined;
 // with the clean rule off they are not. (A scan's crossing of that size among other bends is
