@@ -1245,7 +1245,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
                   false,
                   {}};
       // A curved crease: the arc both creases bend along, if it agrees better than the chord.
-      // A crease that followed the rim pairs only along an arc (below), from a smaller turn on
+      // A crease that followed the rim may pair along an arc from a smaller turn on
       // (min_arc_turn_deg; couplingdown_sharp #1's boss-top ring crosses by 56°).
       double arc_score = 0;
       if (auto arc = crease_arc_between(ca, cb, min_arc_turn_deg(options, ca, cb),

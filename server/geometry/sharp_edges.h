@@ -87,8 +87,8 @@ struct CreaseOptions {
   //! A pair whose tangents turn by at least this between the crossings may be joined by a
   //! circular arc (below it the straight pairing above decides, and a Hermite curve joins).
   double min_arc_turn_deg = 60;
-  //! The same for a pair with a crossing whose crease ran along the rim first: such a pair is
-  //! joined only by an arc (a straight crease crossing a notch of the rim is left to the fill).
+  //! The same for a pair with a crossing whose crease ran along the rim first (a ring that runs
+  //! along the rim and then cuts across turns less inside the hole).
   double rim_run_min_arc_turn_deg = 30;
   //! An arc joins two crossings only if the curvature fitted to each crease is within this
   //! factor of the arc's either way (and bends towards the arc's centre): the fit over a few
