@@ -1071,36 +1071,38 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   else
     methods = {FillMethod::Piecewise, FillMethod::MinimumWeight3d};
   // The crease split along every curve of the plan first; when it cannot be made (its patch
-  // crosses the mesh, a region cannot be filled), along fewer: the least certain curve taken out
-  // each time (plan_without_weakest_curve), up to FillOptions::crease_split_retries times,
-  // before any whole-hole method. A split along the creases that are surely there keeps them,
-  // which a whole-hole patch cannot. Picked curves are the operator's: all of them or none.
-  std::vector<HoleCreasePlan> fewer_curves;
+  // crosses the mesh, a region cannot be filled), along fewer, up to
+  // FillOptions::crease_split_retries times before any whole-hole method: each time without the
+  // curve nearest where the split before crossed the mesh, or the least certain curve when it
+  // failed otherwise (plan_without_weakest_curve). A split along the creases that are surely
+  // there keeps them, which a whole-hole patch cannot. Picked curves are the operator's: all
+  // of them or none. The crease splits are methods 0 to `crease_splits` - 1.
+  std::size_t crease_splits = 0;
   if (creases && !creases->curves.empty() && options.methods.empty()) {
-    methods.insert(methods.begin(), FillMethod::CreaseSplit);
-    const int retries = options.explicit_creases ? 0 : options.crease_split_retries;
-    for (int k = 0; k < retries; ++k) {
-      std::optional<HoleCreasePlan> fewer =
-          plan_without_weakest_curve(k == 0 ? *creases : fewer_curves.back(), options.creases);
-      if (!fewer) break;
-      fewer_curves.push_back(std::move(*fewer));
-      methods.insert(methods.begin() + k + 1, FillMethod::CreaseSplit);
-    }
+    const std::size_t curves = creases->curves.size() + creases->corner_links.size();
+    const int retries = options.explicit_creases ? 0 : std::max(0, options.crease_split_retries);
+    crease_splits = 1 + std::min(static_cast<std::size_t>(retries), curves - 1);
+    methods.insert(methods.begin(), crease_splits, FillMethod::CreaseSplit);
   }
   if (options.methods.empty()) methods.push_back(FillMethod::EarClipping);
-  // Each method's plan of creases (a crease split's), and its name in the report.
+  // The plans with fewer curves, each built when the split before it has failed; where that
+  // split's patch crossed the mesh (a point of the first crossing face found).
+  std::vector<HoleCreasePlan> fewer_curves;
+  std::vector<std::optional<Vec3>> crossed_at(methods.size());
+  // Each method's plan of creases (a crease split's: null for a retry not built yet), and its
+  // name in the report.
   const auto plan_of = [&](std::size_t m) -> const HoleCreasePlan* {
     if (!creases) return nullptr;
-    return methods[m] == FillMethod::CreaseSplit && m >= 1 && m <= fewer_curves.size()
-               ? &fewer_curves[m - 1]
-               : &*creases;
+    if (m == 0 || m >= crease_splits) return &*creases;
+    return m <= fewer_curves.size() ? &fewer_curves[m - 1] : nullptr;
   };
   const auto curve_count = [](const HoleCreasePlan& plan) {
     return plan.curves.size() + plan.corner_links.size();
   };
   const auto method_name = [&](std::size_t m) {
     const HoleCreasePlan* plan = plan_of(m);
-    if (plan == nullptr || plan == &*creases) return std::string(to_string(methods[m]));
+    if (methods[m] != FillMethod::CreaseSplit || plan == nullptr || plan == &*creases)
+      return std::string(to_string(methods[m]));
     return fmt::format("{} ({} of {} curves)", to_string(methods[m]), curve_count(*plan),
                        curve_count(*creases));
   };
@@ -1301,6 +1303,17 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       // The membrane is built over its flat stand-in's triangulation.
       const bool avoid = (!fair || step.membrane) && method == FillMethod::MinimumWeight3d;
       std::optional<TopologyPatch>& topology = topologies[2 * m + (avoid ? 1 : 0)];
+      if (m > 0 && m < crease_splits && fewer_curves.size() < m) {
+        // The split before this one has failed (the attempts run in order): leave out a curve.
+        std::optional<HoleCreasePlan> fewer;
+        if (const HoleCreasePlan* before = plan_of(m - 1))
+          fewer = plan_without_weakest_curve(*before, options.creases, crossed_at[m - 1]);
+        if (!fewer) {
+          dead[m] = 1;
+          continue;
+        }
+        fewer_curves.push_back(std::move(*fewer));
+      }
       if (!topology) {
         if (method == FillMethod::MinimumWeight3d && hole.loop.size() > options.max_dp_vertices) {
           failures.push_back(fmt::format("{}: {} boundary vertices exceed its limit of {}",
@@ -1364,13 +1377,24 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       // embedded in its own plane (disk_projects_injectively: a patch split along creases folds
       // over every plane as a whole, but its regions rarely do; couplingdown_sml #1 0.17 -> 0.15
       // ms, the other crease holes of couplingdown 5-10 us less).
+      // Where the first crossing is (the new face of the pair found), for a crease split's retry.
+      const auto note_crossing = [&](const std::vector<std::pair<FaceHandle, FaceHandle>>& pairs) {
+        if (pairs.empty()) return false;
+        const FaceHandle f = std::find(faces.begin(), faces.end(), pairs[0].first) != faces.end()
+                                 ? pairs[0].first
+                                 : pairs[0].second;
+        Vec3 centre(0, 0, 0);
+        for (const VertexHandle v : mesh.fv_range(f)) centre += mesh.point(v);
+        crossed_at[m] = centre / 3.0;
+        return true;
+      };
       const auto patch_intersects = [&] {
         if (hole.is_simple &&
             projects_injectively(mesh, faces,
                                  ReferenceFrame::from_normal(hole.reference_normal, hole.centroid)))
-          return !find_intersections_with_rest(mesh, faces, 1, reach).empty();
+          return note_crossing(find_intersections_with_rest(mesh, faces, 1, reach));
         if (faces.empty() || face_regions.size() != faces.size())
-          return !find_face_intersections(mesh, faces, 1, reach).empty();
+          return note_crossing(find_face_intersections(mesh, faces, 1, reach));
         const int regions = 1 + *std::max_element(face_regions.begin(), face_regions.end());
         std::vector<std::vector<FaceHandle>> region_faces(static_cast<std::size_t>(regions));
         for (std::size_t i = 0; i < faces.size(); ++i)
@@ -1378,8 +1402,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         std::vector<char> embedded(region_faces.size());
         for (std::size_t r = 0; r < region_faces.size(); ++r)
           embedded[r] = disk_projects_injectively(mesh, region_faces[r]) ? 1 : 0;
-        return !find_intersections_between_groups(mesh, faces, face_regions, embedded, 1, reach)
-                    .empty();
+        return note_crossing(
+            find_intersections_between_groups(mesh, faces, face_regions, embedded, 1, reach));
       };
       const auto check_start = Clock::now();
       const bool crosses = refused.empty() && options.check_intersections && patch_intersects();

@@ -1462,15 +1462,42 @@ std::string meeting_at_corners(std::size_t corners) {
 }
 
 std::optional<HoleCreasePlan> plan_without_weakest_curve(const HoleCreasePlan& plan,
-                                                         const CreaseOptions& options) {
-  // The pairs by misfit (corner creases have none); a loose one goes before the corners.
+                                                         const CreaseOptions& options,
+                                                         const std::optional<Vec3>& failed_at) {
   std::optional<std::size_t> worst;
-  for (std::size_t i = 0; i < plan.curves.size(); ++i)
-    if (plan.curves[i].to && (!worst || plan.curves[i].misfit > plan.curves[*worst].misfit))
-      worst = i;
-  const bool loose_pair = worst && plan.curves[*worst].misfit > options.pair_angle_deg * kDeg;
+  bool drop_corners = false;
+  if (failed_at) {
+    // The curve (or corner link) that passes nearest the crossing.
+    double nearest = std::numeric_limits<double>::infinity();
+    const auto consider = [&](const Vec3& a, const Vec3& b, std::optional<std::size_t> curve) {
+      const double d = segment_segment_distance2(*failed_at, *failed_at, a, b);
+      if (d < nearest) {
+        nearest = d;
+        worst = curve;
+        drop_corners = !curve || !plan.curves[*curve].to;
+      }
+    };
+    constexpr int kSamples = 16;
+    for (std::size_t i = 0; i < plan.curves.size(); ++i) {
+      const CreaseCurve& c = plan.curves[i];
+      const auto at = [&](int k) {
+        const double t = static_cast<double>(k) / kSamples;
+        return c.arc ? c.arc->at(t) : c.curve.at(t);
+      };
+      for (int k = 0; k < kSamples; ++k) consider(at(k), at(k + 1), i);
+    }
+    for (const auto& [a, b] : plan.corner_links)
+      consider(plan.corners[a], plan.corners[b], std::nullopt);
+  } else {
+    // The pairs by misfit (corner creases have none); a loose one goes before the corners.
+    for (std::size_t i = 0; i < plan.curves.size(); ++i)
+      if (plan.curves[i].to && (!worst || plan.curves[i].misfit > plan.curves[*worst].misfit))
+        worst = i;
+    drop_corners = !plan.corners.empty() &&
+                   !(worst && plan.curves[*worst].misfit > options.pair_angle_deg * kDeg);
+  }
   HoleCreasePlan out = plan;
-  if (!plan.corners.empty() && !loose_pair) {
+  if (drop_corners) {
     // The corners go together: two or three in a row are one structure of creases.
     std::erase_if(out.curves, [](const CreaseCurve& c) { return !c.to; });
     out.corners.clear();

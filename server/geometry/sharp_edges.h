@@ -199,13 +199,16 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
 //! " meeting at a corner", " meeting at N corners", or nothing for none: for plan summaries.
 std::string meeting_at_corners(std::size_t corners);
 
-//! The plan with its least certain curve taken out, for a crease split that could not be made
-//! with them all (its patch crossed the mesh, or its regions could not be filled): a pair
-//! joined only loosely (tangents over `options.pair_angle_deg` off its curve) first, the one
-//! that strays most; else the corners with every crease and link to them; else the pair that
-//! strays most. The crossings it used are reported unmatched. None when no curve would be left.
-std::optional<HoleCreasePlan> plan_without_weakest_curve(const HoleCreasePlan& plan,
-                                                         const CreaseOptions& options = {});
+//! The plan with one curve taken out, for a crease split that could not be made with them all.
+//! Where its patch crossed the mesh (\p failed_at, a point of a crossing face), the curve
+//! nearest that point: the split's trouble is in the regions beside it. Otherwise the least
+//! certain curve: a pair joined only loosely (tangents over `options.pair_angle_deg` off its
+//! curve) first, the one that strays most; else the corners; else the pair that strays most.
+//! A corner's crease or link takes the corners with every crease and link to them. The
+//! crossings it used are reported unmatched. None when no curve would be left.
+std::optional<HoleCreasePlan> plan_without_weakest_curve(
+    const HoleCreasePlan& plan, const CreaseOptions& options = {},
+    const std::optional<Vec3>& failed_at = std::nullopt);
 
 //! Extends the creases of \p crossings (indices into plan.crossings, three or more) to a common
 //! corner: the least-squares nearest point to their tangent lines, which must lie ahead of every

@@ -368,6 +368,36 @@ TEST(FillHole, ACreaseSplitThatCannotBeMadeIsTriedAgainWithFewerCurves) {
   EXPECT_GT(mean_distance_to(whole, whole.reports[0], truth, diagonal), 0.02);
 }
 
+// Five balls cut out of fandisk (touchmend-cut-bench --only fandisk.obj:1:9) leave a 68-edge
+// hole that three creases cross. One of them runs within a mean edge of the rim, and the strip
+// between them folds: every split along it crosses the mesh. The curve left out is the one
+// nearest the crossing, so the split along the other two is made (20°, 1.4‰ of the diagonal
+// from the removed faces); taking out the least certain pairs instead kept the troublesome one
+// to the end, and the hole went to the 3D triangulation (2.0°, 7.3‰).
+TEST(FillHole, ACreaseSplitRetryLeavesOutTheCurveNearestWhereItCrossedTheMesh) {
+  const std::array<std::pair<Vec3, double>, 5> balls{
+      {{Vec3(0.651222, 15.0116, -2.64694), 1.0961208},
+       {Vec3(4.8279, 13.7969, -0.274985), 0.347678572},
+       {Vec3(3.74789, 16.9988, 0), 0.924380962},
+       {Vec3(1.63317, 16.0422, 0), 0.922556583},
+       {Vec3(2.74898, 15.3371, -1.73575), 0.739925778}}};
+  std::vector<TrianglePoints> truth;
+  const MeshSoup cut = cut_shared_mesh("fandisk.obj", balls, &truth);
+  const auto hole_175 = [](const Hole& h) { return h.id == 175 && h.loop.size() == 68; };
+  const FillRun run = fill_and_check(cut, {}, hole_175);
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.shape_reason;
+  EXPECT_EQ(r.crease_curves, 2u) << r.creases;
+  EXPECT_NE(r.shape_reason.find("the split along all 3 curves of the plan"), std::string::npos)
+      << r.shape_reason;
+  EXPECT_GE(r.min_angle_deg, 15.0);
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
+  const double diagonal = 7.6156;  // fandisk's bounding-box diagonal (rounded)
+  EXPECT_LT(mean_distance_to(run, r, truth, diagonal), 0.003);
+}
+
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
   const MeshSoup s = testing::cube_with_hole(8, Vec3(8, 4, 8), 2.2);
   FillOptions plain;  // without crease retaining: the auto shape alone

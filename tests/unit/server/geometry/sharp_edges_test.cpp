@@ -222,11 +222,13 @@ TEST(SharpEdges, BentCreasesMeetingInPairsGetTheirTwoCornersExactly) {
   EXPECT_EQ(plan.curves.size(), 4u);
 }
 
-// When a split along every curve of a plan cannot be made, the curves are taken out least
-// certain first: a loosely joined pair (its tangents over CreaseOptions::pair_angle_deg off its
-// curve), then the corners with their creases, then the pair that strays most; the crossings
-// freed are reported unmatched, and a plan is not reduced to no curve at all.
-TEST(SharpEdges, ThePlanLosesItsLeastCertainCurveFirst) {
+// When a split along every curve of a plan cannot be made, a curve is taken out. Where the
+// split's patch crossed the mesh, the curve nearest that point (a corner's crease takes the
+// corners with it); otherwise the least certain: a loosely joined pair (its tangents over
+// CreaseOptions::pair_angle_deg off its curve), then the corners with their creases, then the
+// pair that strays most. The crossings freed are reported unmatched, and a plan is not reduced
+// to no curve at all.
+TEST(SharpEdges, ThePlanLosesTheCurveNearestTheTroubleOrItsLeastCertainOne) {
   const double degree = std::numbers::pi / 180;
   HoleCreasePlan plan;
   for (std::size_t i = 0; i < 7; ++i) {
@@ -234,20 +236,28 @@ TEST(SharpEdges, ThePlanLosesItsLeastCertainCurveFirst) {
     c.loop_index = 3 * i;
     plan.crossings.push_back(c);
   }
-  const auto pair = [&](std::size_t a, std::size_t b, double misfit_deg) {
+  // Straight curves in the plane z = 0.
+  const auto line = [](const Vec3& a, const Vec3& b) {
+    const HermiteCurveResult r = make_hermite_curve({a - (b - a), a, b, b + (b - a)}, {}, 1e-9);
+    EXPECT_TRUE(r.curve);
+    return r.curve ? *r.curve : HermiteCurve{};
+  };
+  const auto pair = [&](std::size_t a, std::size_t b, double misfit_deg, double y) {
     CreaseCurve c;
     c.from = a;
     c.to = b;
     c.misfit = misfit_deg * degree;
+    c.curve = line(Vec3(0, y, 0), Vec3(10, y, 0));
     plan.curves.push_back(c);
   };
-  pair(0, 1, 10);
-  pair(2, 3, 40);  // loose
-  plan.corners = {Vec3(0, 0, 0)};
+  pair(0, 1, 10, 0);  // along y = 0
+  pair(2, 3, 40, 4);  // loose, along y = 4
+  plan.corners = {Vec3(5, 8, 0)};
   for (const std::size_t from : {4u, 5u, 6u}) {  // three creases meet at the corner
     CreaseCurve c;
     c.from = from;
     c.corner = 0;
+    c.curve = line(Vec3(2.0 * static_cast<double>(from) - 5, 12, 0), Vec3(5, 8, 0));
     plan.curves.push_back(c);
   }
   const CreaseOptions options;  // pair_angle_deg 35
@@ -266,8 +276,18 @@ TEST(SharpEdges, ThePlanLosesItsLeastCertainCurveFirst) {
   EXPECT_TRUE(second->corners.empty());
   EXPECT_EQ(second->unmatched, (std::vector<std::size_t>{2, 3, 4, 5, 6}));
   EXPECT_EQ(second->summary, "7 crease crossings, 1 curves, 5 unmatched");
-
   EXPECT_FALSE(plan_without_weakest_curve(*second, options));
+
+  // The split crossed the mesh beside the most certain pair: that pair goes.
+  const auto beside = plan_without_weakest_curve(plan, options, Vec3(6, 0.5, 0.2));
+  ASSERT_TRUE(beside);
+  ASSERT_EQ(beside->curves.size(), 4u);
+  EXPECT_EQ(beside->unmatched, (std::vector<std::size_t>{0, 1}));
+  // ... or near a crease to the corner: the corner goes with its creases.
+  const auto near_corner = plan_without_weakest_curve(plan, options, Vec3(4.9, 9, 0));
+  ASSERT_TRUE(near_corner);
+  ASSERT_EQ(near_corner->curves.size(), 2u);
+  EXPECT_TRUE(near_corner->corners.empty());
 }
 
 // A 45 deg fold across a hole (a chamfer of a CAD part): below the crease angle of 50 deg, but
