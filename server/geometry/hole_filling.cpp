@@ -406,10 +406,12 @@ void remove_patch(Mesh& mesh, const std::vector<FaceHandle>& faces,
 }
 
 //! Adds the triangulation to the mesh. Faces are added in passes so that a face OpenMesh
-//! cannot link yet (its fan not contiguous) is retried once its neighbours exist.
+//! cannot link yet (its fan not contiguous) is retried once its neighbours exist. When some
+//! cannot be linked at all, \p unlinked_at (if given) receives the centroid of the first.
 bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch,
                   std::vector<FaceHandle>& faces, std::vector<VertexHandle>& vertices,
-                  std::vector<int>& face_pieces, std::string& why) {
+                  std::vector<int>& face_pieces, std::string& why,
+                  std::optional<Vec3>* unlinked_at = nullptr) {
   std::vector<VertexHandle> pool(hole.loop.begin(), hole.loop.end());
   for (const Vec3& p : patch.new_points) {
     const VertexHandle v = mesh.add_vertex(p);
@@ -436,6 +438,12 @@ bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch,
       why =
           fmt::format("{} of {} triangles could not be linked into the mesh (non-manifold result)",
                       retry.size(), patch.triangles.size());
+      if (unlinked_at != nullptr) {
+        Vec3 centre(0, 0, 0);
+        for (const int k : patch.triangles[retry.front()])
+          centre += mesh.point(pool[static_cast<std::size_t>(k)]);
+        *unlinked_at = centre / 3.0;
+      }
       remove_patch(mesh, faces, vertices);
       faces.clear();
       vertices.clear();
@@ -1073,8 +1081,9 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // The crease split along every curve of the plan first; when it cannot be made (its patch
   // crosses the mesh, a region cannot be filled), along fewer, up to
   // FillOptions::crease_split_retries times before any whole-hole method: each time without the
-  // curve nearest where the split before crossed the mesh, or the least certain curve when it
-  // failed otherwise (plan_without_weakest_curve). A split along the creases that are surely
+  // curve nearest where the split before crossed the mesh or had a triangle that could not be
+  // linked into it, or the least certain curve when it failed otherwise
+  // (plan_without_weakest_curve). A split along the creases that are surely
   // there keeps them, which a whole-hole patch cannot. Picked curves are the operator's: all
   // of them or none. The crease splits are methods 0 to `crease_splits` - 1.
   std::size_t crease_splits = 0;
@@ -1086,7 +1095,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   }
   if (options.methods.empty()) methods.push_back(FillMethod::EarClipping);
   // The plans with fewer curves, each built when the split before it has failed; where that
-  // split's patch crossed the mesh (a point of the first crossing face found).
+  // split went wrong (the first face found crossing the mesh, or the first triangle that could
+  // not be linked into it).
   std::vector<HoleCreasePlan> fewer_curves;
   std::vector<std::optional<Vec3>> crossed_at(methods.size());
   // Each method's plan of creases (a crease split's: null for a retry not built yet), and its
@@ -1338,7 +1348,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       std::vector<int> face_pieces;
       std::vector<int> face_regions;
       std::string why;
-      if (!insert_patch(mesh, hole, patch, faces, vertices, face_pieces, why)) {
+      if (!insert_patch(mesh, hole, patch, faces, vertices, face_pieces, why, &crossed_at[m])) {
         failures.push_back(fmt::format("{}: {}", method_name(m), why));
         dead[m] = 1;
         continue;
