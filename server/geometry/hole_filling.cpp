@@ -1083,9 +1083,9 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // FillOptions::crease_split_retries times before any whole-hole method: each time without the
   // curve nearest where the split before crossed the mesh or had a triangle that could not be
   // linked into it, or the least certain curve when it failed otherwise
-  // (plan_without_weakest_curve). A split along the creases that are surely
-  // there keeps them, which a whole-hole patch cannot. Picked curves are the operator's: all
-  // of them or none. The crease splits are methods 0 to `crease_splits` - 1.
+  // (plan_without_weakest_curve). A split along the creases that are surely there keeps them,
+  // which a whole-hole patch cannot. Picked curves are the operator's: all of them or none.
+  // The crease splits are methods 0 to `crease_splits` - 1.
   std::size_t crease_splits = 0;
   if (creases && !creases->curves.empty() && options.methods.empty()) {
     const std::size_t curves = creases->curves.size() + creases->corner_links.size();
@@ -1497,9 +1497,9 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         attempt.creases = plan.summary;
         if (&plan != &*creases)
           attempt.shape_reason += fmt::format(
-              "; the split along all {} curves of the plan ({}) could not be made, the least "
-              "certain were left out",
-              curve_count(*creases), creases->summary);
+              "; the split along all {} curves of the plan ({}) could not be made, {} left out",
+              curve_count(*creases), creases->summary,
+              curve_count(*creases) - attempt.crease_curves);
       } else if (step.membrane) {
         attempt.shape_reason = fmt::format(
             "a membrane: the thin plate chosen for {} was refused, and the flat stand-in's "

@@ -102,8 +102,9 @@ struct FillOptions {
   PatchQualityOptions quality;
   CreaseOptions creases;  //!< detection and pairing for SharpMode::Auto
   //! When the split along every curve of the detected plan cannot be made, it is tried again
-  //! with the least certain curve left out (plan_without_weakest_curve), at most this many
-  //! times, before the whole-hole methods. 0: the whole plan or nothing.
+  //! with one curve left out (the one nearest where the split went wrong, else the least
+  //! certain: plan_without_weakest_curve), at most this many times, before the whole-hole
+  //! methods. 0: the whole plan or nothing.
   int crease_split_retries = 2;
   //! Curves given by the caller (picked points) instead of detected ones: used by the
   //! CreaseSplit method whatever `sharp` says.

@@ -202,11 +202,11 @@ std::string meeting_at_corners(std::size_t corners);
 //! The plan with one curve taken out, for a crease split that could not be made with them all.
 //! Where its patch went wrong (\p failed_at: a point of a face that crossed the mesh, or of a
 //! triangle that could not be linked into it), the curve nearest that point: the split's trouble
-//! is in the regions beside it. Otherwise the least
-//! certain curve: a pair joined only loosely (tangents over `options.pair_angle_deg` off its
-//! curve) first, the one that strays most; else the corners; else the pair that strays most.
-//! A corner's crease or link takes the corners with every crease and link to them. The
-//! crossings it used are reported unmatched. None when no curve would be left.
+//! is in the regions beside it. Otherwise the least certain curve: a pair joined only loosely
+//! (tangents over `options.pair_angle_deg` off its curve) first, the one that strays most; else
+//! the corners; else the pair that strays most. A corner's crease or link takes the corners
+//! with every crease and link to them. The crossings it used are reported unmatched. None when
+//! no curve would be left.
 std::optional<HoleCreasePlan> plan_without_weakest_curve(
     const HoleCreasePlan& plan, const CreaseOptions& options = {},
     const std::optional<Vec3>& failed_at = std::nullopt);
