@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "server/geometry/mesh_build.h"
@@ -93,6 +94,19 @@ void expect_left_open(const FillRun& run, std::string_view why) {
   ASSERT_EQ(run.reports.size(), 1u);
   EXPECT_FALSE(run.reports[0].filled);
   EXPECT_NE(run.reports[0].reason.find(why), std::string::npos) << run.reports[0].reason;
+}
+
+//! \p run filled its one hole by a crease split along \p curves of the \p planned curves of its
+//! plan (the split along them all could not be made), crossing nothing.
+void expect_split_along_fewer_curves(const FillRun& run, std::size_t curves, std::size_t planned) {
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.shape_reason;
+  EXPECT_EQ(r.crease_curves, curves) << r.creases;
+  const std::string whole = fmt::format("the split along all {} curves of the plan", planned);
+  EXPECT_NE(r.shape_reason.find(whole), std::string::npos) << r.shape_reason;
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
 }
 
 double min_new_angle(const FillRun& run) {
@@ -346,17 +360,11 @@ TEST(FillHole, ACreaseSplitThatCannotBeMadeIsTriedAgainWithFewerCurves) {
   const auto hole_344 = [](const Hole& h) { return h.id == 344 && h.loop.size() == 34; };
   const double diagonal = 1.4605;  // the coupling's bounding-box diagonal (rounded)
   const FillRun run = fill_and_check(cut, {}, hole_344);
-  ASSERT_EQ(run.reports.size(), 1u);
+  ASSERT_NO_FATAL_FAILURE(expect_split_along_fewer_curves(run, 2, 4));
   const HoleFillReport& r = run.reports[0];
-  ASSERT_TRUE(r.filled) << r.reason;
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.shape_reason;
-  EXPECT_EQ(r.crease_curves, 2u) << r.creases;
-  EXPECT_NE(r.shape_reason.find("the split along all 4 curves of the plan"), std::string::npos)
-      << r.shape_reason;
   ASSERT_FALSE(r.warnings.empty());
   EXPECT_NE(r.warnings.back().find("crease-split (3 of 4 curves)"), std::string::npos)
       << r.warnings.back();
-  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
   EXPECT_LT(mean_distance_to(run, r, truth, diagonal), 0.005);
 
   FillOptions whole_plan_only;
@@ -385,15 +393,9 @@ TEST(FillHole, ACreaseSplitRetryLeavesOutTheCurveNearestWhereItCrossedTheMesh) {
   const MeshSoup cut = cut_shared_mesh("fandisk.obj", balls, &truth);
   const auto hole_175 = [](const Hole& h) { return h.id == 175 && h.loop.size() == 68; };
   const FillRun run = fill_and_check(cut, {}, hole_175);
-  ASSERT_EQ(run.reports.size(), 1u);
+  ASSERT_NO_FATAL_FAILURE(expect_split_along_fewer_curves(run, 2, 3));
   const HoleFillReport& r = run.reports[0];
-  ASSERT_TRUE(r.filled) << r.reason;
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.shape_reason;
-  EXPECT_EQ(r.crease_curves, 2u) << r.creases;
-  EXPECT_NE(r.shape_reason.find("the split along all 3 curves of the plan"), std::string::npos)
-      << r.shape_reason;
   EXPECT_GE(r.min_angle_deg, 15.0);
-  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces, 1).empty());
   const double diagonal = 7.6156;  // fandisk's bounding-box diagonal (rounded)
   EXPECT_LT(mean_distance_to(run, r, truth, diagonal), 0.003);
 }
