@@ -637,13 +637,14 @@ ShapeDecision decide_shape(const Mesh& mesh, const Hole& hole, const FillOptions
   // Edge by edge planar, but are the planes a part's faces? (rim_planes_across) Asked only
   // where it decides the shape: holes without creases at the rim are faired either way (the
   // fill benchmark's subdivided sphere, 736 edges: no time spent on it there).
-  const double planes_across = sharp_edges >= 2 && median < options.piecewise_planar_median_deg &&
-                                       options.piecewise_planar_min_planes_across > 0
-                                   ? rim_planes_across(mesh, hole, normals)
-                                   : 1.0;
-  const bool small_facets = median < options.piecewise_planar_median_deg &&
-                            planes_across < options.piecewise_planar_min_planes_across;
-  const bool piecewise_planar = median < options.piecewise_planar_median_deg && !small_facets;
+  const bool edge_planar = median < options.piecewise_planar_median_deg;
+  const double planes_across =
+      sharp_edges >= 2 && edge_planar && options.piecewise_planar_min_planes_across > 0
+          ? rim_planes_across(mesh, hole, normals)
+          : 1.0;
+  const bool small_facets =
+      edge_planar && planes_across < options.piecewise_planar_min_planes_across;
+  const bool piecewise_planar = edge_planar && !small_facets;
   d.crease_regions = piecewise_planar ? PatchShape::Flat : PatchShape::Fair;
   if (sharp_edges >= 2) {
     d.feature = true;
@@ -1088,9 +1089,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // The crease splits are methods 0 to `crease_splits` - 1.
   std::size_t crease_splits = 0;
   if (creases && !creases->curves.empty() && options.methods.empty()) {
-    const std::size_t curves = creases->curves.size() + creases->corner_links.size();
     const int retries = options.explicit_creases ? 0 : std::max(0, options.crease_split_retries);
-    crease_splits = 1 + std::min(static_cast<std::size_t>(retries), curves - 1);
+    crease_splits = 1 + std::min(static_cast<std::size_t>(retries), curve_count(*creases) - 1);
     methods.insert(methods.begin(), crease_splits, FillMethod::CreaseSplit);
   }
   if (options.methods.empty()) methods.push_back(FillMethod::EarClipping);
@@ -1105,9 +1105,6 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     if (!creases) return nullptr;
     if (m == 0 || m >= crease_splits) return &*creases;
     return m <= fewer_curves.size() ? &fewer_curves[m - 1] : nullptr;
-  };
-  const auto curve_count = [](const HoleCreasePlan& plan) {
-    return plan.curves.size() + plan.corner_links.size();
   };
   const auto method_name = [&](std::size_t m) {
     const HoleCreasePlan* plan = plan_of(m);
@@ -1234,10 +1231,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // worst), while the rising bound makes a solve fast (a 770-edge bunny hole in about 0.3 s).
   // It comes before the less-mended retries below (its patch is mended and can be faired: the
   // bunny's 473-edge cut hole, 15.4°), once.
-  bool last_resort_tried = false;
   const auto try_last_resort = [&]() -> std::optional<HoleFillReport> {
-    if (last_resort_tried) return std::nullopt;
-    last_resort_tried = true;
     if (!options.methods.empty() || hole.loop.size() <= options.max_dp_vertices ||
         hole.loop.size() > options.last_resort_dp_vertices)
       return std::nullopt;
@@ -1393,9 +1387,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         const FaceHandle f = std::find(faces.begin(), faces.end(), pairs[0].first) != faces.end()
                                  ? pairs[0].first
                                  : pairs[0].second;
-        Vec3 centre(0, 0, 0);
-        for (const VertexHandle v : mesh.fv_range(f)) centre += mesh.point(v);
-        crossed_at[m] = centre / 3.0;
+        crossed_at[m] = mesh.calc_face_centroid(f);
         return true;
       };
       const auto patch_intersects = [&] {

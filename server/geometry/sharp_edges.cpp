@@ -1074,8 +1074,8 @@ namespace {
 //! corners count as curves.
 std::string plan_summary(const HoleCreasePlan& plan) {
   return fmt::format(
-      "{} crease crossings, {} curves{}{}", plan.crossings.size(),
-      plan.curves.size() + plan.corner_links.size(), meeting_at_corners(plan.corners.size()),
+      "{} crease crossings, {} curves{}{}", plan.crossings.size(), curve_count(plan),
+      meeting_at_corners(plan.corners.size()),
       plan.unmatched.empty() ? "" : fmt::format(", {} unmatched", plan.unmatched.size()));
 }
 

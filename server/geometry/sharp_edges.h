@@ -199,6 +199,12 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
 //! " meeting at a corner", " meeting at N corners", or nothing for none: for plan summaries.
 std::string meeting_at_corners(std::size_t corners);
 
+//! The curves a split along \p plan follows: its creases and the straight links between its
+//! corners.
+inline std::size_t curve_count(const HoleCreasePlan& plan) {
+  return plan.curves.size() + plan.corner_links.size();
+}
+
 //! The plan with one curve taken out, for a crease split that could not be made with them all.
 //! Where its patch went wrong (\p failed_at: a point of a face that crossed the mesh, or of a
 //! triangle that could not be linked into it), the curve nearest that point: the split's trouble
