@@ -1070,6 +1070,107 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
 
 namespace {
 
+//! A rounded crease (a fillet) where it meets the rim: a run of consecutive boundary vertices,
+//! close together, each with one soft edge leaving it in about the same direction, whose bends
+//! add up to a crease's.
+struct RoundedCrease {
+  std::size_t first = 0, last = 0;  //!< loop indices of the run's ends (last after first)
+  std::size_t middle = 0;           //!< the loop index where half the turn is reached
+  HalfedgeHandle edge;              //!< the soft edge leaving the middle vertex
+  double turn_deg = 0;              //!< the bends of the run's soft edges added up
+};
+
+//! The rounded creases at the rim of \p hole. A CAD part's fillet is a band of thin facets,
+//! each bent by less than a crease's angle from the next (couplingdown_sml #1: four facets of
+//! 15-30° turning the bore's wall into its ceiling), so no edge of it is sharp and the plan
+//! would fill across it as across a smooth surface, cutting the corner (11.1‰ mean off, where
+//! the surfaces continued meet within 0.3 fillet radii of the band). Where the band crosses
+//! the rim its facets' edges leave consecutive rim vertices a small fraction of the rim's mean
+//! edge apart: a run of vertices each with exactly one edge bent by at least
+//! `kSoftEdgeDeg` (and less than the crease angle: a sharp one is a crease of its own), the
+//! next vertex within `kBandGapShare` mean edges, the edges within `kBandSpreadDeg` of one
+//! direction and folding the same way, their bends adding up to over the crease angle. A
+//! scan's smooth surface, meshed evenly, has no such run: its rim vertices lie a mean edge apart.
+std::vector<RoundedCrease> find_rounded_creases(FaceNormals& normals, const Hole& hole,
+                                                const CreaseOptions& options) {
+  constexpr double kSoftEdgeDeg = 8.0;
+  constexpr double kBandGapShare = 0.5;
+  constexpr double kStripAspect = 3.0;
+  constexpr double kBandSpreadDeg = 30.0;
+  const Mesh& mesh = normals.mesh();
+  const std::size_t n = hole.loop.size();
+  struct Member {
+    HalfedgeHandle edge;
+    double bend_deg = 0;
+    bool convex = false;
+    Vec3 direction{0, 0, 0};
+    double length = 0;
+  };
+  std::vector<std::optional<Member>> members(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const VertexHandle b = hole.loop[i];
+    const VertexHandle prev = hole.loop[(i + n - 1) % n];
+    const VertexHandle next = hole.loop[(i + 1) % n];
+    std::optional<Member> soft;
+    bool clean = true;
+    for (const HalfedgeHandle h : mesh.voh_range(b)) {
+      const VertexHandle w = mesh.to_vertex_handle(h);
+      if (w == prev || w == next || mesh.is_boundary(mesh.edge_handle(h))) continue;
+      const double bend = dihedral_deg(normals, h);
+      if (!(bend >= kSoftEdgeDeg)) continue;
+      if (soft || bend >= options.clean_crease_angle_deg) {
+        clean = false;
+        break;
+      }
+      const VertexHandle across =
+          mesh.to_vertex_handle(mesh.next_halfedge_handle(mesh.opposite_halfedge_handle(h)));
+      soft = Member{
+          h, bend,
+          OpenMesh::dot(normals(mesh.face_handle(h)), mesh.point(across) - mesh.point(b)) < 0,
+          (mesh.point(w) - mesh.point(b)).normalize_cond(), (mesh.point(w) - mesh.point(b)).norm()};
+    }
+    if (clean) members[i] = soft;
+  }
+  // Whether loop vertex k (a member) continues the run ending at j (a member) with \p head's
+  // direction and fold.
+  const double gap = kBandGapShare * hole.mean_edge_length;
+  const double spread_cos = std::cos(kBandSpreadDeg * kDeg);
+  const auto continues = [&](std::size_t j, std::size_t k, const Member& head) {
+    if (!members[j] || !members[k] || members[k]->convex != head.convex ||
+        OpenMesh::dot(members[k]->direction, head.direction) < spread_cos)
+      return false;
+    const double apart = (mesh.point(hole.loop[k]) - mesh.point(hole.loop[j])).norm();
+    return apart <= gap && std::min(members[j]->length, members[k]->length) >= kStripAspect * apart;
+  };
+  // Runs start after a vertex that does not continue into them (a loop that is one whole run
+  // has no start, and no crossing either).
+  std::vector<RoundedCrease> out;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!members[i] || continues((i + n - 1) % n, i, *members[i])) continue;
+    const Member& head = *members[i];
+    std::vector<std::size_t> run{i};
+    while (run.size() < n && continues(run.back(), (run.back() + 1) % n, head))
+      run.push_back((run.back() + 1) % n);
+    if (run.size() < 2) continue;
+    double turn = 0;
+    for (const std::size_t k : run) turn += members[k]->bend_deg;
+    if (!(turn > options.crease_angle_deg)) continue;
+    // The middle: the member whose share of the turn is centred nearest half of it.
+    std::size_t middle = run.front();
+    double before = 0, best = std::numeric_limits<double>::infinity();
+    for (const std::size_t k : run) {
+      const double centre = before + 0.5 * members[k]->bend_deg;
+      if (std::abs(centre - 0.5 * turn) < best) {
+        best = std::abs(centre - 0.5 * turn);
+        middle = k;
+      }
+      before += members[k]->bend_deg;
+    }
+    out.push_back({run.front(), run.back(), middle, members[middle]->edge, turn});
+  }
+  return out;
+}
+
 //! "N crease crossings, K curves[ meeting at ...][, U unmatched]": the straight creases between
 //! corners count as curves.
 std::string plan_summary(const HoleCreasePlan& plan) {
@@ -1203,6 +1304,20 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
           found.push_back(std::move(*c));
         }
       }
+    }
+  }
+  // Rounded creases: one crossing each, at the band's middle, traced along its soft edge and
+  // as strong as the band's whole turn (the crossings its members made alone are dropped).
+  for (const RoundedCrease& band : find_rounded_creases(normals, hole, options)) {
+    const auto in_band = [&](std::size_t k) {
+      return (k + n - band.first) % n <= (band.last + n - band.first) % n;
+    };
+    std::erase_if(found, [&](const CreaseCrossing& c) { return in_band(c.loop_index); });
+    const std::vector<Vec3> polyline = trace_crease(
+        normals, band.edge, SharpAngle(0.5 * dihedral_deg(normals, band.edge)), 4.0 * fit_length);
+    if (auto c = crossing_from(band.middle, polyline, band.edge)) {
+      c->dihedral_deg = band.turn_deg;
+      found.push_back(std::move(*c));
     }
   }
 

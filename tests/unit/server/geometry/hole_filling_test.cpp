@@ -270,7 +270,10 @@ TEST(FillHole, AHoleOverTheTriangulationLimitThatNothingElseClosesGetsItAsALastR
 // wall's top row, next to another hole's rim. The 3D triangulation is clean, but its mending
 // across the folds (the stand-in of the refused faired patch) flips an edge through a face of
 // that rim, and every other attempt crosses the mesh too: the flat 3D triangulation is built
-// again with its folds kept, and the hole is closed.
+// again with its folds kept, and the hole is closed. (The rim also crosses a fillet at both
+// ends, which the crease plan splits along since rounded creases are found: closed at 2.7°,
+// mean 2.26 per mille off the removed faces against 6.6° and 1.03 this way. The test fills
+// without crease retaining, to reach the whole-hole attempts it is about.)
 TEST(FillHole, AFlatPatchWhoseMendingAcrossFoldsCrossesTheMeshIsBuiltAgainWithItsFoldsKept) {
   const std::array<std::pair<Vec3, double>, 5> balls{
       {{Vec3(-0.0162827, -0.478988, -0.174528), 0.197601784},
@@ -280,7 +283,9 @@ TEST(FillHole, AFlatPatchWhoseMendingAcrossFoldsCrossesTheMeshIsBuiltAgainWithIt
        {Vec3(-0.232812, -0.166766, -0.0330189), 0.183701221}}};
   const MeshSoup cut = cut_shared_mesh("couplingdown.off", balls);
   const auto comb_hole = [](const Hole& h) { return h.id == 307 && h.loop.size() == 26; };
-  const FillRun run = fill_and_check(cut, {}, comb_hole);
+  FillOptions no_creases;
+  no_creases.sharp = SharpMode::Off;
+  const FillRun run = fill_and_check(cut, no_creases, comb_hole);
   expect_clean_3d_fill(run, "folds kept");
   ASSERT_EQ(run.reports.size(), 1u);
   EXPECT_GT(run.reports[0].min_angle_deg, 1.0);
