@@ -7,6 +7,8 @@
 #include "server/geometry/sharp_edges.h"
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <map>
 #include <numbers>
 
@@ -313,6 +315,75 @@ TEST(SharpEdges, CleanFoldBelowTheCreaseAngleIsACrease) {
   CreaseOptions off;
   off.clean_crease_angle_deg = off.crease_angle_deg;
   EXPECT_TRUE(plan_hole_creases(mesh, hole, off).curves.empty());
+}
+
+// A fillet: a plane turning by 60° over three strips 0.1 wide, each bent 20° from the next (no
+// edge of it is a crease), the rest of the grid 1 apart. A hole cut across it meets each side
+// of the band at three consecutive rim vertices; the plan takes each band as one crossing of the
+// band's whole turn, at its middle strip edge, and joins the two. On the same grid with the
+// strips 1 wide (an evenly meshed bend, as a scan's) nothing is found.
+MeshSoup filleted_grid(double strip) {
+  std::vector<double> xs;
+  for (int i = 0; i <= 8; ++i) xs.push_back(i);
+  for (int k = 1; k <= 3; ++k) xs.push_back(8 + k * strip);
+  for (int i = 1; i <= 8; ++i) xs.push_back(8 + 3 * strip + i);
+  // Height along x: flat, then slopes of 20°, 40° and 60° over the strips, then 60° on.
+  const auto height = [&](double x) {
+    double z = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double from = 8 + k * strip;
+      const double to = k < 2 ? from + strip : std::numeric_limits<double>::infinity();
+      if (x > from)
+        z += (std::min(x, to) - from) * std::tan((k + 1) * 20.0 * std::numbers::pi / 180);
+    }
+    return z;
+  };
+  MeshSoup soup;
+  const int ny = 21;
+  for (int j = 0; j < ny; ++j)
+    for (const double x : xs) soup.points.push_back(Vec3(x, j, height(x)));
+  const auto at = [&](std::size_t i, int j) {
+    return static_cast<std::uint32_t>(static_cast<std::size_t>(j) * xs.size() + i);
+  };
+  for (int j = 0; j + 1 < ny; ++j)
+    for (std::size_t i = 0; i + 1 < xs.size(); ++i) {
+      soup.triangles.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+      soup.triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+    }
+  return soup;
+}
+
+TEST(SharpEdges, AFilletIsOneCreaseCrossingTheRimAtItsMiddle) {
+  for (const double strip : {0.1, 1.0}) {
+    SCOPED_TRACE(strip);
+    const MeshSoup grid = filleted_grid(strip);
+    const Mesh mesh = build_mesh(testing::remove_faces(grid, [&](const Vec3& c) {
+                        return std::hypot(c[0] - (8 + 1.5 * strip), c[1] - 10) < 4.0;
+                      })).mesh;
+    const auto holes = find_holes(mesh).holes;
+    ASSERT_EQ(holes.size(), 2u);  // the cut and the grid's border
+    const Hole& hole = holes[0].perimeter < holes[1].perimeter ? holes[0] : holes[1];
+    const HoleCreasePlan plan = plan_hole_creases(mesh, hole);
+    if (strip > 0.5) {
+      EXPECT_TRUE(plan.crossings.empty()) << plan.summary;
+      continue;
+    }
+    ASSERT_EQ(plan.crossings.size(), 2u) << plan.summary;
+    ASSERT_EQ(plan.curves.size(), 1u) << plan.summary;
+    for (const CreaseCrossing& c : plan.crossings) {
+      EXPECT_NEAR(c.dihedral_deg, 60.0, 1e-6);
+      EXPECT_FALSE(c.convex);
+      EXPECT_NEAR(c.position[0], 8 + strip, 1e-12);   // the middle strip edge
+      EXPECT_NEAR(std::abs(c.inward[1]), 1.0, 1e-9);  // along the fillet, into the hole
+    }
+    // Filled split along it, clean.
+    Mesh filled = mesh;
+    const testing::Snapshot before = testing::take_snapshot(filled);
+    const HoleFillReport r = fill_hole(filled, hole, FillOptions{});
+    ASSERT_TRUE(r.filled) << r.reason;
+    EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+    EXPECT_TRUE(testing::check_fill_invariants(before, filled, {r}, holes).empty());
+  }
 }
 
 TEST(SharpEdges, SmoothSurfacesHaveNoCreases) {
