@@ -265,6 +265,26 @@ TEST(FillHole, AHoleOverTheTriangulationLimitThatNothingElseClosesGetsItAsALastR
   expect_left_open(fill_and_check(cut, no_last_resort, large_hole), "exceed its limit of 400");
 }
 
+// Two balls cut out of the coupling (touchmend-cut-bench --only couplingdown.off:5:2) leave a
+// 33-edge hole: strips cut out of the outer wall above its floor, every other strip triangle
+// left standing (a comb). Next to the wall's creases the shape is faired, but the 3D
+// triangulation (wall and floor, as the removed faces were) has no vertex of its own to fair,
+// and the planar triangulation faired after it lay 105.9 per mille of the diagonal off the
+// removed faces. The 3D triangulation's flat build now comes right after.
+TEST(FillHole, ANearCreaseTriangulationWithNothingToFairIsKeptFlatBeforeOtherFairedPatches) {
+  const std::array<std::pair<Vec3, double>, 2> balls{
+      {{Vec3(0.397057, -0.123474, -0.18239), 0.138565933},
+       {Vec3(-0.232609, -0.285064, 0.157233), 0.191125384}}};
+  std::vector<TrianglePoints> truth;
+  const MeshSoup cut = cut_shared_mesh("couplingdown.off", balls, &truth);
+  const auto comb_hole = [](const Hole& h) { return h.loop.size() == 33; };
+  const FillRun run = fill_and_check(cut, {}, comb_hole);
+  expect_clean_3d_fill(run, "");
+  ASSERT_EQ(run.reports.size(), 1u);
+  const double diagonal = 1.4605;  // couplingdown's bounding-box diagonal (rounded)
+  EXPECT_LT(mean_distance_to(run, run.reports[0], truth, diagonal), 3e-3);
+}
+
 // Five balls cut out of the coupling (touchmend-cut-bench --only couplingdown.off:1:6) leave a
 // 26-edge hole across the foot of a wall, its rim a comb of strip triangles hanging from the
 // wall's top row, next to another hole's rim. The 3D triangulation is clean, but its mending
