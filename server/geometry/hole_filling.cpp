@@ -1130,7 +1130,6 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   std::vector<char> dead(methods.size(), 0);
   std::vector<char> refused_fair(methods.size(), 0);
   std::vector<char> crossed_fair(methods.size(), 0);
-  std::vector<char> flat_next(methods.size(), 0);  //!< its flat build moved up (kNothingToFair)
   const auto wants_fair = [&](FillMethod method) {
     return method == FillMethod::CreaseSplit
                ? options.creases.fair_pieces.value_or(decision.crease_regions == PatchShape::Fair)
@@ -1472,20 +1471,19 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
                                                : step.membrane ? " (a membrane)"
                                                                : "",
                                                refused));
-          refused_fair[m] = 1;
           // Nothing to fair next to creases, which the fill is to retain: the triangulation is
           // the patch, and its flat build comes next, before the other methods' faired
           // patches, which span the hole differently (couplingdown random cut s5c2 hole 141,
           // strips cut out of a cylinder wall above its floor: the 3D triangulation follows
           // wall and floor, 1.4 per mille off the removed faces; the planar one, faired next,
           // 105.9). Measured on random cuts of the shared meshes (seeds 1-9): 3 fills closer,
-          // 2 farther by 0.04 and 1.1 per mille.
+          // 2 farther by 0.04 and 1.1 per mille. Only at the method's first faired refusal (a
+          // membrane's refusal would queue another stand-in, whose membrane would follow).
           if (refused == kNothingToFair && decision.feature && options.sharp == SharpMode::Auto &&
-              whole_hole_fairing(m, fair) && !step.membrane && !flat_next[m]) {
-            flat_next[m] = 1;
+              whole_hole_fairing(m, fair) && !step.membrane && !refused_fair[m])
             attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
                             Attempt{m, false, true});
-          }
+          refused_fair[m] = 1;
         } else {
           failures.push_back(
               fmt::format("{}{}: {}", method_name(m),

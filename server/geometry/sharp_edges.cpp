@@ -61,6 +61,16 @@ bool is_sharp(FaceNormals& normals, HalfedgeHandle h, const SharpAngle& threshol
   return OpenMesh::dot(a, b) < threshold.cosine;
 }
 
+//! Whether the edge of \p h is convex (a ridge): the face of \p h sees the far vertex of the
+//! face across the edge below it.
+bool folds_convex(FaceNormals& normals, HalfedgeHandle h) {
+  const Mesh& mesh = normals.mesh();
+  const VertexHandle across =
+      mesh.to_vertex_handle(mesh.next_halfedge_handle(mesh.opposite_halfedge_handle(h)));
+  return OpenMesh::dot(normals(mesh.face_handle(h)),
+                       mesh.point(across) - mesh.point(mesh.from_vertex_handle(h))) < 0;
+}
+
 double angle_between(const Vec3& a, const Vec3& b) {
   return std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b));
 }
@@ -1125,12 +1135,8 @@ std::vector<RoundedCrease> find_rounded_creases(FaceNormals& normals, const Hole
         clean = false;
         break;
       }
-      const VertexHandle across =
-          mesh.to_vertex_handle(mesh.next_halfedge_handle(mesh.opposite_halfedge_handle(h)));
-      soft = Member{
-          h, bend,
-          OpenMesh::dot(normals(mesh.face_handle(h)), mesh.point(across) - mesh.point(b)) < 0,
-          (mesh.point(w) - mesh.point(b)).normalize_cond(), (mesh.point(w) - mesh.point(b)).norm()};
+      const Vec3 edge = mesh.point(w) - mesh.point(b);
+      soft = Member{h, bend, folds_convex(normals, h), Vec3(edge).normalize_cond(), edge.norm()};
     }
     if (clean) members[i] = soft;
   }
@@ -1240,11 +1246,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     for (const HalfedgeHandle o : mesh.voh_range(from))
       if (o != h && !mesh.is_boundary(mesh.edge_handle(o)))
         c.other_bends_deg = std::max(c.other_bends_deg, dihedral_deg(normals, o));
-    // Convex (a ridge) when the face on one side sees the other side's far vertex below it.
-    const FaceHandle f0 = mesh.face_handle(h);
-    const VertexHandle across =
-        mesh.to_vertex_handle(mesh.next_halfedge_handle(mesh.opposite_halfedge_handle(h)));
-    c.convex = OpenMesh::dot(normals(f0), mesh.point(across) - mesh.point(from)) < 0;
+    c.convex = folds_convex(normals, h);
     c.traced_edges = polyline.size() - 1;
     return c;
   };
