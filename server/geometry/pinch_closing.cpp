@@ -11,6 +11,22 @@
 
 namespace touchmend::geometry {
 
+namespace {
+
+//! A corner's triangle that folds against one of its two rim neighbours by more than 60° is
+//! taken only after those that continue the surface, whatever their angles: on couplingdown's
+//! combs (a cut through a cylinder wall of long strip triangles, leaving a chain of lone teeth
+//! that touch at their corners) the wall triangles between the teeth have 3° corners and the
+//! chords across the ring under them 7°, and the largest smallest angle alone spanned the ring.
+constexpr double kCornerFoldCos = 0.5;
+
+Vec3 unit_face_normal(const Mesh& mesh, VertexHandle a, VertexHandle b, VertexHandle c) {
+  Vec3 n = OpenMesh::cross(mesh.point(b) - mesh.point(a), mesh.point(c) - mesh.point(a));
+  return n.normalize_cond();
+}
+
+}  // namespace
+
 PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reach) {
   PinchClosure out;
   std::vector<VertexHandle> loop = hole.loop;
@@ -22,6 +38,7 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
         if (loop[i] == v) corners.push_back(i);
       if (corners.size() < 2) break;
       struct Candidate {
+        bool folds;  //!< against one of its two rim neighbours by more than 60°
         double sine;
         std::size_t corner;
       };
@@ -33,10 +50,19 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
         if (mesh.find_halfedge(p, a).is_valid() || mesh.find_halfedge(a, p).is_valid()) continue;
         const double sine = min_angle_sine(mesh.point(p), mesh.point(v), mesh.point(a));
         if (!(sine > std::sin(kDegenerateAngleDeg * std::numbers::pi / 180))) continue;
-        candidates.push_back({sine, i});
+        const Vec3 normal = unit_face_normal(mesh, p, v, a);
+        bool folds = false;
+        for (const HalfedgeHandle rim : {halfedges[(i + n - 1) % n], halfedges[i]}) {
+          const FaceHandle neighbour = mesh.face_handle(mesh.opposite_halfedge_handle(rim));
+          folds = folds || !neighbour.is_valid() ||
+                  !(OpenMesh::dot(normal, mesh.calc_face_normal(neighbour)) > kCornerFoldCos);
+        }
+        candidates.push_back({folds, sine, i});
       }
       std::stable_sort(candidates.begin(), candidates.end(),
-                       [](const Candidate& x, const Candidate& y) { return x.sine > y.sine; });
+                       [](const Candidate& x, const Candidate& y) {
+                         return x.folds != y.folds ? !x.folds : x.sine > y.sine;
+                       });
       bool closed = false;
       for (const Candidate& c : candidates) {
         const std::size_t i = c.corner;
@@ -99,10 +125,6 @@ std::size_t flip_pinch_closing_edges(Mesh& mesh, const PinchClosure& closure,
   const auto sine = [&](VertexHandle a, VertexHandle b, VertexHandle c) {
     return min_angle_sine(mesh.point(a), mesh.point(b), mesh.point(c));
   };
-  const auto unit_normal = [&](VertexHandle a, VertexHandle b, VertexHandle c) {
-    Vec3 n = OpenMesh::cross(mesh.point(b) - mesh.point(a), mesh.point(c) - mesh.point(a));
-    return n.normalize_cond();
-  };
   for (const auto& [p, v, a] : closure.corners) {
     const HalfedgeHandle h = mesh.find_halfedge(p, a);
     if (!h.is_valid() || mesh.is_boundary(h)) continue;
@@ -113,9 +135,10 @@ std::size_t flip_pinch_closing_edges(Mesh& mesh, const PinchClosure& closure,
     if (x == v || !mesh.is_flip_ok(e)) continue;
     if (!(std::min(sine(v, a, x), sine(x, p, v)) > std::min(sine(p, v, a), sine(p, a, x))))
       continue;
-    const Vec3 before = (unit_normal(p, v, a) + unit_normal(p, a, x)).normalize_cond();
-    if (!(OpenMesh::dot(unit_normal(v, a, x), before) > 0.5) ||
-        !(OpenMesh::dot(unit_normal(x, p, v), before) > 0.5))
+    const Vec3 before =
+        (unit_face_normal(mesh, p, v, a) + unit_face_normal(mesh, p, a, x)).normalize_cond();
+    if (!(OpenMesh::dot(unit_face_normal(mesh, v, a, x), before) > 0.5) ||
+        !(OpenMesh::dot(unit_face_normal(mesh, x, p, v), before) > 0.5))
       continue;
     mesh.flip(e);
     const HalfedgeHandle flipped = mesh.halfedge_handle(e, 0);

@@ -33,8 +33,9 @@ struct PinchClosure {
 //! seed 000 §4.3's Algorithm IX, which closes a gap's ends with one triangle each and fills
 //! the hole left). Of the corners at v the triangle with the largest smallest angle is taken
 //! that creates no edge the mesh already has, is not degenerate, links into the mesh and
-//! meets no other face. The pinch is then no longer in the loop, whatever the fill does: on
-//! failure the caller removes the triangles, so the mesh is as it was.
+//! meets no other face; first among those that continue the surface (fold by at most 60°
+//! against both rim faces they join), then the others. The pinch is then no longer in the loop,
+//! whatever the fill does: on failure the caller removes the triangles, so the mesh is as it was.
 PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reach);
 
 //! After the disk is filled, the edge p-a of each pinch-closing triangle (p, v, a), now shared

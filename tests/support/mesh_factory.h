@@ -48,6 +48,14 @@ MeshSoup remove_faces(const MeshSoup& soup, const std::function<bool(const Vec3&
 //! when no face qualifies.
 MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double radius);
 
+//! A comb, as random cuts leave it on couplingdown's cylinder walls (strips of long triangles):
+//! cylinder(0.05, 1.0, 48, 6), bands 0.2 high, cut in a sector of 1 radian through its second to
+//! fourth bands, of whose third band only the triangles with two corners on its lower ring
+//! stay, and only up to 1 radian. Those teeth touch each other at their lower corners only, and
+//! the last is free, so the hole's one loop passes each shared corner twice. The wall triangles
+//! between the teeth have 1.9° corners; chords across the lower ring under them would have 3.75°.
+MeshSoup comb_cut_cylinder();
+
 //! \p soup with a separate right triangle of unit legs added at \p corner (in z = corner's z):
 //! a fragment, whose outline is a three-edge loop.
 MeshSoup with_lone_triangle(MeshSoup soup, const Vec3& corner);

@@ -565,6 +565,28 @@ TEST(FillHole, PinchedHoleOnASphereIsFairedBackOntoIt) {
   for (const VertexHandle v : r.new_vertices) EXPECT_NEAR(run.mesh.point(v).norm(), 1.0, 0.02);
 }
 
+// A comb of lone teeth on a cylinder wall that touch at their lower corners (a loop through
+// every shared corner twice; testing::comb_cut_cylinder): filled, closed and manifold,
+// and the pinches closed along the wall, so that every new face faces away from the axis (a
+// chord across the ring under the teeth would face along it) and none leaves the cylinder by
+// more than a flat patch's sag over the cut's sector.
+TEST(FillHole, ACombOfTeethOnACylinderWallIsFilledAlongTheWall) {
+  const FillRun run = fill_and_check(testing::comb_cut_cylinder(), {},
+                                     [](const Hole& h) { return h.pinched_at.size() >= 4; });
+  ASSERT_EQ(run.reports.size(), 1u);
+  const HoleFillReport& r = run.reports[0];
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(find_holes(run.mesh).holes.size(), 2u);  // the cylinder's two open ends
+  EXPECT_EQ(validate_mesh(run.mesh).non_manifold_vertices, 0u);
+  EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces).empty());
+  // The sector spans 1 radian: a chord across it sags 0.05 (1 - cos 0.5) = 0.006 inside.
+  for (const FaceHandle f : r.new_faces) {
+    const Vec3 c = run.mesh.calc_face_centroid(f);
+    EXPECT_NEAR(std::hypot(c[0], c[1]), 0.05, 0.0065) << "face " << f.idx();
+    EXPECT_LT(std::abs(run.mesh.calc_face_normal(f)[2]), 0.5) << "face " << f.idx();
+  }
+}
+
 // The outside of a flat bowtie: one triangle closes the pinch, but every patch of the four-edge
 // loop left would lie on the bowtie's own triangles. The hole stays open, says why, and the
 // triangle across the pinch is taken out again: the mesh is as it was.

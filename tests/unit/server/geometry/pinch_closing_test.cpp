@@ -1,6 +1,7 @@
 #include "server/geometry/pinch_closing.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <gtest/gtest.h>
 
@@ -74,6 +75,26 @@ TEST(PinchClosing, CornersWhoseClosingEdgesExistAreRefused) {
   EXPECT_NE(closure.failure.find("no triangle closes its corners"), std::string::npos)
       << closure.failure;
   EXPECT_TRUE(closure.faces.empty());
+}
+
+// Each pinch of the comb is closed with the wall triangle between two teeth (its normal across
+// the axis), not with a chord across the ring under them (its normal along the axis), though
+// the chords have the larger smallest angles.
+TEST(PinchClosing, ACombOfTeethIsClosedAlongTheWallNotAcrossTheRing) {
+  Mesh mesh = build_mesh(testing::comb_cut_cylinder()).mesh;
+  Hole hole;
+  for (const Hole& h : find_holes(mesh).holes)
+    if (h.pinched_at.size() > hole.pinched_at.size()) hole = h;
+  ASSERT_GE(hole.pinched_at.size(), 4u);
+  const SearchReach reach = make_search_reach(mesh);
+  const PinchClosure closure = close_pinches(mesh, hole, reach);
+  ASSERT_TRUE(closure.failure.empty()) << closure.failure;
+  ASSERT_EQ(closure.faces.size(), hole.pinched_at.size());
+  for (const FaceHandle f : closure.faces) {
+    const Vec3 n = mesh.calc_face_normal(f);
+    EXPECT_LT(std::abs(n[2]), 0.05) << "face " << f.idx() << " normal " << n;
+  }
+  EXPECT_EQ(validate_mesh(mesh).non_manifold_vertices, 0u);
 }
 
 }  // namespace
