@@ -1636,53 +1636,85 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   if (options.remove_fragments && hole.fragment_faces > 0)
     if (HoleFillReport removed = remove_fragment(mesh, hole); removed.fragment_removed())
       return removed;
-  if (!hole.unfillable_reason.empty() || hole.pinched_at.empty())
-    return fill_disk_hole(mesh, hole, options, reach);
+  if (!hole.unfillable_reason.empty()) return fill_disk_hole(mesh, hole, options, reach);
   const auto start = Clock::now();
   if (!(reach.longest_edge > 0)) reach = make_search_reach(mesh);
-  const std::string pinched =
-      hole.pinched_at.size() == 1
-          ? fmt::format("the boundary passes through vertex {} twice (pinched hole)",
-                        hole.pinched_at.front().idx())
-          : fmt::format("the boundary passes through vertices {} more than once (pinched hole)",
-                        fmt::join(vertex_ids(hole.pinched_at), ", "));
-  PinchClosure closure = close_pinches(mesh, hole, reach);
-  HoleFillReport report;
-  if (!closure.failure.empty()) {
-    remove_patch(mesh, closure.faces, {});
-    report.hole_id = hole.id;
-    report.boundary_vertices = hole.loop.size();
-    report.reason = pinched + ": " + closure.failure;
-    report.seconds = seconds_since(start);
-    return report;
+  // A pinched loop is made a disk first (pinch_closing.h), and the disk's narrow notches are
+  // closed with their ears.
+  std::string pinched;
+  PinchClosure pinches;
+  const Hole* disk = &hole;
+  if (!hole.pinched_at.empty()) {
+    pinched =
+        hole.pinched_at.size() == 1
+            ? fmt::format("the boundary passes through vertex {} twice (pinched hole)",
+                          hole.pinched_at.front().idx())
+            : fmt::format("the boundary passes through vertices {} more than once (pinched hole)",
+                          fmt::join(vertex_ids(hole.pinched_at), ", "));
+    pinches = close_pinches(mesh, hole, reach);
+    if (!pinches.failure.empty()) {
+      remove_patch(mesh, pinches.faces, {});
+      HoleFillReport report;
+      report.hole_id = hole.id;
+      report.boundary_vertices = hole.loop.size();
+      report.reason = pinched + ": " + pinches.failure;
+      report.seconds = seconds_since(start);
+      return report;
+    }
+    reach.add(mesh, pinches.faces);
+    disk = &pinches.hole;
   }
-  reach.add(mesh, closure.faces);
+  PinchClosure notches;
+  if (options.close_notches && !options.explicit_creases) {
+    notches = close_notches(mesh, *disk, reach);
+    if (!notches.failure.empty()) {
+      remove_patch(mesh, notches.faces, {});
+      notches = {};
+    } else if (!notches.faces.empty()) {
+      reach.add(mesh, notches.faces);
+    }
+  }
   // Creases planned on the pinched loop (sharpen's picks) name their rim vertices by position in
   // that loop: renumbered for the disk's.
   FillOptions disk_options = options;
-  if (disk_options.explicit_creases)
+  if (disk_options.explicit_creases && disk != &hole)
     for (CreaseCrossing& c : disk_options.explicit_creases->crossings) {
-      const auto at = std::find(closure.hole.loop.begin(), closure.hole.loop.end(), c.vertex);
-      if (at != closure.hole.loop.end())
-        c.loop_index = static_cast<std::size_t>(at - closure.hole.loop.begin());
+      const auto at = std::find(disk->loop.begin(), disk->loop.end(), c.vertex);
+      if (at != disk->loop.end()) c.loop_index = static_cast<std::size_t>(at - disk->loop.begin());
     }
-  report = fill_disk_hole(mesh, closure.hole, disk_options, reach);
+  HoleFillReport report =
+      fill_disk_hole(mesh, notches.faces.empty() ? *disk : notches.hole, disk_options, reach);
+  if (!report.filled && !notches.faces.empty()) {
+    // Without the ears, the rest of the fill may go another way.
+    remove_patch(mesh, notches.faces, {});
+    notches = {};
+    report = fill_disk_hole(mesh, *disk, disk_options, reach);
+  }
   report.hole_id = hole.id;
   report.boundary_vertices = hole.loop.size();
-  const std::string closing =
-      fmt::format("closed with {} triangle{} across the pinch first", closure.faces.size(),
-                  closure.faces.size() == 1 ? "" : "s");
-  if (report.filled) {
-    report.flips += flip_pinch_closing_edges(mesh, closure, reach);
-    report.new_faces.insert(report.new_faces.begin(), closure.faces.begin(), closure.faces.end());
-    report.faces_added += closure.faces.size();
-    report.min_angle_deg = min_angle_deg(mesh, report.new_faces);
-    report.warnings.insert(report.warnings.begin(), pinched + ": " + closing);
-  } else {
-    remove_patch(mesh, closure.faces, {});
-    report.reason = pinched + ", " + closing + ", then: " + report.reason;
-  }
   report.seconds = seconds_since(start);
+  const std::string closing =
+      pinches.faces.empty()
+          ? std::string()
+          : fmt::format("closed with {} triangle{} across the pinch first", pinches.faces.size(),
+                        pinches.faces.size() == 1 ? "" : "s");
+  if (!report.filled) {
+    remove_patch(mesh, pinches.faces, {});
+    if (!pinches.faces.empty())
+      report.reason = pinched + ", " + closing + ", then: " + report.reason;
+    return report;
+  }
+  if (!pinches.faces.empty()) report.flips += flip_pinch_closing_edges(mesh, pinches, reach);
+  std::vector<FaceHandle> closed = pinches.faces;
+  closed.insert(closed.end(), notches.faces.begin(), notches.faces.end());
+  if (!closed.empty()) {
+    report.new_faces.insert(report.new_faces.begin(), closed.begin(), closed.end());
+    report.faces_added += closed.size();
+    report.angles_closed += notches.faces.size();
+    report.min_angle_deg = min_angle_deg(mesh, report.new_faces);
+  }
+  if (!pinches.faces.empty())
+    report.warnings.insert(report.warnings.begin(), pinched + ": " + closing);
   return report;
 }
 

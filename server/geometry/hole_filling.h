@@ -114,6 +114,10 @@ struct FillOptions {
   //! that piece instead: no patch can close it (a patch would lie on the piece's back), and the
   //! piece is no part of the surface. Off by default: the piece is the input's data.
   bool remove_fragments = false;
+  //! Before the fill, close the rim's narrow notches (corners under 15°) with their ears where
+  //! those continue the surface (pinch_closing.h: close_notches); counted in angles_closed. Not
+  //! under explicit_creases, whose picks name rim vertices an ear would take out of the loop.
+  bool close_notches = true;
 };
 
 struct HoleFillReport {

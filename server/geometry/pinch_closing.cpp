@@ -20,9 +20,66 @@ namespace {
 //! chords across the ring under them 7°, and the largest smallest angle alone spanned the ring.
 constexpr double kCornerFoldCos = 0.5;
 
+//! close_notches: a rim corner narrower than DESIGN's 15° smallest angle...
+constexpr double kNotchMaxCornerDeg = 15.0;
+//! ...whose ear continues both rim faces within 30° (cosine).
+const double kNotchMaxFoldCos = std::cos(30.0 * std::numbers::pi / 180);
+
 Vec3 unit_face_normal(const Mesh& mesh, VertexHandle a, VertexHandle b, VertexHandle c) {
   Vec3 n = OpenMesh::cross(mesh.point(b) - mesh.point(a), mesh.point(c) - mesh.point(a));
   return n.normalize_cond();
+}
+
+//! Whether the triangle \p corner = (p, v, a) folds against the face across either rim
+//! halfedge of \p rim (p -> v and v -> a) by more than the angle whose cosine is \p min_cos.
+bool folds_against_rim(const Mesh& mesh, const std::array<VertexHandle, 3>& corner,
+                       const std::array<HalfedgeHandle, 2>& rim, double min_cos) {
+  const Vec3 normal = unit_face_normal(mesh, corner[0], corner[1], corner[2]);
+  for (const HalfedgeHandle h : rim) {
+    const FaceHandle neighbour = mesh.face_handle(mesh.opposite_halfedge_handle(h));
+    if (!neighbour.is_valid() ||
+        !(OpenMesh::dot(normal, mesh.calc_face_normal(neighbour)) > min_cos))
+      return true;
+  }
+  return false;
+}
+
+//! Adds the face (p, v, a) across the rim's corner p -> v -> a, which takes those two boundary
+//! halfedges; returns the loop's new boundary halfedge p -> a, or an invalid handle (and the
+//! mesh as it was) when the face cannot be added, meets another face or does not link in.
+HalfedgeHandle add_corner_face(Mesh& mesh, VertexHandle p, VertexHandle v, VertexHandle a,
+                               const SearchReach& reach) {
+  const FaceHandle f = mesh.add_face(p, v, a);
+  if (!f.is_valid()) return HalfedgeHandle();
+  const FaceHandle one[] = {f};
+  const HalfedgeHandle joined = mesh.find_halfedge(p, a);
+  if (!find_intersections_with_rest(mesh, one, 1, reach).empty() || !joined.is_valid() ||
+      !mesh.is_boundary(joined)) {
+    mesh.delete_face(f, false);
+    return HalfedgeHandle();
+  }
+  return joined;
+}
+
+//! The loop as the mesh now links it, from \p halfedges' first around into \p disk: false
+//! unless it is \p halfedges (a walk that takes another way at a vertex where more fans meet
+//! is not filled).
+bool linked_as_one_loop(const Mesh& mesh, const std::vector<HalfedgeHandle>& halfedges,
+                        Hole& disk) {
+  const HalfedgeHandle start = halfedges.front();
+  HalfedgeHandle h = start;
+  do {
+    disk.loop.push_back(mesh.from_vertex_handle(h));
+    disk.halfedges.push_back(h);
+    h = next_hole_halfedge(mesh, h);
+  } while (h.is_valid() && h != start && disk.loop.size() <= halfedges.size());
+  return h == start && disk.halfedges == halfedges;
+}
+
+//! The disk keeps the hole's id and gets its own properties.
+void finish_disk(const Mesh& mesh, const Hole& hole, Hole& disk) {
+  disk.id = hole.id;
+  compute_hole_properties(mesh, disk, /*compute_projectability=*/true);
 }
 
 }  // namespace
@@ -50,13 +107,8 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
         if (mesh.find_halfedge(p, a).is_valid() || mesh.find_halfedge(a, p).is_valid()) continue;
         const double sine = min_angle_sine(mesh.point(p), mesh.point(v), mesh.point(a));
         if (!(sine > std::sin(kDegenerateAngleDeg * std::numbers::pi / 180))) continue;
-        const Vec3 normal = unit_face_normal(mesh, p, v, a);
-        bool folds = false;
-        for (const HalfedgeHandle rim : {halfedges[(i + n - 1) % n], halfedges[i]}) {
-          const FaceHandle neighbour = mesh.face_handle(mesh.opposite_halfedge_handle(rim));
-          folds = folds || !neighbour.is_valid() ||
-                  !(OpenMesh::dot(normal, mesh.calc_face_normal(neighbour)) > kCornerFoldCos);
-        }
+        const bool folds = folds_against_rim(
+            mesh, {p, v, a}, {halfedges[(i + n - 1) % n], halfedges[i]}, kCornerFoldCos);
         candidates.push_back({folds, sine, i});
       }
       std::stable_sort(candidates.begin(), candidates.end(),
@@ -69,19 +121,9 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
         const VertexHandle p = loop[(i + n - 1) % n], a = loop[(i + 1) % n];
         // The face across the corner takes the two boundary halfedges p -> v -> a; its third
         // edge's other half, p -> a, is the loop's new boundary halfedge.
-        const FaceHandle f = mesh.add_face(p, v, a);
-        if (!f.is_valid()) continue;
-        const FaceHandle one[] = {f};
-        if (!find_intersections_with_rest(mesh, one, 1, reach).empty()) {
-          mesh.delete_face(f, false);
-          continue;
-        }
-        const HalfedgeHandle joined = mesh.find_halfedge(p, a);
-        if (!joined.is_valid() || !mesh.is_boundary(joined)) {
-          mesh.delete_face(f, false);
-          continue;
-        }
-        out.faces.push_back(f);
+        const HalfedgeHandle joined = add_corner_face(mesh, p, v, a, reach);
+        if (!joined.is_valid()) continue;
+        out.faces.push_back(mesh.face_handle(mesh.opposite_halfedge_handle(joined)));
         out.corners.push_back({p, v, a});
         // The loop without this corner: p -> a replaces p -> v -> a.
         const std::size_t previous = (i + n - 1) % n;
@@ -100,22 +142,57 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
       }
     }
   }
-  // The loop as the mesh now links it: from the joined halfedge around, it must be the loop
-  // above (a walk that takes another way at a vertex where more fans meet is not filled).
-  Hole& disk = out.hole;
-  const HalfedgeHandle start = halfedges.front();
-  HalfedgeHandle h = start;
-  do {
-    disk.loop.push_back(mesh.from_vertex_handle(h));
-    disk.halfedges.push_back(h);
-    h = next_hole_halfedge(mesh, h);
-  } while (h.is_valid() && h != start && disk.loop.size() <= loop.size());
-  if (h != start || disk.halfedges != halfedges) {
+  if (!linked_as_one_loop(mesh, halfedges, out.hole))
     out.failure = "the boundary left after closing the pinch is not one loop";
+  else
+    finish_disk(mesh, hole, out.hole);
+  return out;
+}
+
+PinchClosure close_notches(Mesh& mesh, const Hole& hole, const SearchReach& reach) {
+  PinchClosure out;
+  std::vector<VertexHandle> loop = hole.loop;
+  std::vector<HalfedgeHandle> halfedges = hole.halfedges;
+  const double max_corner_cos = std::cos(kNotchMaxCornerDeg * std::numbers::pi / 180);
+  // One ear at a time, the scan begun again after each: closing one changes the corners of its
+  // two neighbours.
+  for (bool closed = true; closed && loop.size() > 3;) {
+    closed = false;
+    const std::size_t n = loop.size();
+    for (std::size_t i = 0; i < n && !closed; ++i) {
+      const std::size_t previous = (i + n - 1) % n;
+      const VertexHandle p = loop[previous], v = loop[i], a = loop[(i + 1) % n];
+      if (p == a || p == v || a == v) continue;
+      const Vec3 to_p = (mesh.point(p) - mesh.point(v)).normalize_cond();
+      const Vec3 to_a = (mesh.point(a) - mesh.point(v)).normalize_cond();
+      const double corner_cos = OpenMesh::dot(to_p, to_a);
+      if (!(corner_cos > max_corner_cos)) continue;
+      if (mesh.find_halfedge(p, a).is_valid() || mesh.find_halfedge(a, p).is_valid()) continue;
+      // The corner is the ear's smallest angle (1e-9: the corner itself, rounded).
+      const double corner_sine = std::sqrt(std::max(0.0, 1 - corner_cos * corner_cos));
+      const double sine = min_angle_sine(mesh.point(p), mesh.point(v), mesh.point(a));
+      if (!(sine > std::sin(kDegenerateAngleDeg * std::numbers::pi / 180)) ||
+          sine < corner_sine - 1e-9)
+        continue;
+      if (folds_against_rim(mesh, {p, v, a}, {halfedges[previous], halfedges[i]}, kNotchMaxFoldCos))
+        continue;
+      const HalfedgeHandle joined = add_corner_face(mesh, p, v, a, reach);
+      if (!joined.is_valid()) continue;
+      out.faces.push_back(mesh.face_handle(mesh.opposite_halfedge_handle(joined)));
+      halfedges[previous] = joined;
+      loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(i));
+      halfedges.erase(halfedges.begin() + static_cast<std::ptrdiff_t>(i));
+      closed = true;
+    }
+  }
+  if (out.faces.empty()) {
+    out.hole = hole;
     return out;
   }
-  disk.id = hole.id;
-  compute_hole_properties(mesh, disk, /*compute_projectability=*/true);
+  if (!linked_as_one_loop(mesh, halfedges, out.hole))
+    out.failure = "the boundary left after closing its narrow corners is not one loop";
+  else
+    finish_disk(mesh, hole, out.hole);
   return out;
 }
 

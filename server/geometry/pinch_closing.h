@@ -38,6 +38,22 @@ struct PinchClosure {
 //! whatever the fill does: on failure the caller removes the triangles, so the mesh is as it was.
 PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reach);
 
+//! [ours] Closes the rim's narrow notches with their ears before the fill: a corner p -> v -> a
+//! narrower than 15° (DESIGN's smallest angle: a triangulation that stays on the surface there
+//! has a triangle at v no wider than the corner, and the ear is the widest one when the corner
+//! is its smallest angle) whose
+//! ear (p, v, a) continues both rim faces within 30°, creates no edge the mesh has, and meets no
+//! other face. Found by random cuts into couplingdown, whose cylinder walls are strips of long
+//! triangles: a cut that takes every other one leaves a comb whose every gap is such a notch,
+//! exactly the triangle cut away; filled as part of the hole, the gaps' slivers were split and
+//! faired off the wall (60-83 per mille of the diagonal off the removed faces). The seed's
+//! closing of boundary angles (seed 000 §3.4.2, for the planar method, under 5π/9) keeps the
+//! notches' neighbours too; this is its 3D counterpart for the narrowest corners, whose ears lie
+//! on the surface when their two rim faces do. A spike of the surface into the hole (its tip is a
+//! narrow corner too) is not a notch: its ear lies on the spike's back and folds by 180°. No ear
+//! closed: \p hole itself, no faces. The faces carry no corners (nothing to flip afterwards).
+PinchClosure close_notches(Mesh& mesh, const Hole& hole, const SearchReach& reach);
+
 //! After the disk is filled, the edge p-a of each pinch-closing triangle (p, v, a), now shared
 //! with a patch triangle (p, a, x), is flipped to v-x when that makes the pair's smaller angle
 //! larger, neither new triangle turns more than 60° from the pair it replaces, and neither meets

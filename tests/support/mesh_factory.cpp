@@ -49,16 +49,18 @@ MeshSoup cylinder(double r, double height, int around, int rings) {
   return s;
 }
 
-MeshSoup comb_cut_cylinder() {
-  return remove_faces(cylinder(0.05, 1.0, 48, 6), [](const Vec3& c) {
+MeshSoup comb_cut_cylinder(CombTeeth teeth) {
+  return remove_faces(cylinder(0.05, 1.0, 48, 6), [teeth](const Vec3& c) {
     const double angle = std::atan2(c[1], c[0]);
     if (angle < 0.3 || angle > 1.3) return false;
     const double z = c[2];
-    // The second and fourth bands, the third's triangles with one lower corner (their
-    // centroids lie in its upper half), and all of the third past 1 radian: the chain of teeth
-    // is free at that end, so the cut is one hole around it.
-    return (z > 0.2 && z < 0.4) || (z > 0.6 && z < 0.8) || (z > 0.5 && z < 0.6) ||
-           (z > 0.4 && z < 0.6 && angle > 1.0);
+    // The fourth band, and the third's triangles with one lower corner (their centroids lie
+    // in its upper half).
+    if ((z > 0.6 && z < 0.8) || (z > 0.5 && z < 0.6)) return true;
+    // Lone teeth: also the second band, and all of the third past 1 radian, so that the chain
+    // of teeth is free at that end and the cut is one hole around it.
+    return teeth == CombTeeth::Lone &&
+           ((z > 0.2 && z < 0.4) || (z > 0.4 && z < 0.6 && angle > 1.0));
   });
 }
 

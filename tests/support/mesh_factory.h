@@ -49,12 +49,17 @@ MeshSoup remove_faces(const MeshSoup& soup, const std::function<bool(const Vec3&
 MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double radius);
 
 //! A comb, as random cuts leave it on couplingdown's cylinder walls (strips of long triangles):
-//! cylinder(0.05, 1.0, 48, 6), bands 0.2 high, cut in a sector of 1 radian through its second to
-//! fourth bands, of whose third band only the triangles with two corners on its lower ring
-//! stay, and only up to 1 radian. Those teeth touch each other at their lower corners only, and
-//! the last is free, so the hole's one loop passes each shared corner twice. The wall triangles
-//! between the teeth have 1.9° corners; chords across the lower ring under them would have 3.75°.
-MeshSoup comb_cut_cylinder();
+//! cylinder(0.05, 1.0, 48, 6), bands 0.2 high, cut in a sector of 1 radian through its fourth
+//! band and the triangles of its third band with one corner on the lower ring, so that only
+//! the teeth between them stay (each with two corners on the lower ring). The gaps between
+//! the teeth have 1.9° corners at the lower ring.
+//!  - Attached: the teeth stand on the second band; the hole's loop zigzags along them, each
+//!    gap a narrow notch of it.
+//!  - Lone: the second band is cut too, and the third past 1 radian, so the teeth touch each
+//!    other at their lower corners only and the last is free: the hole's one loop passes each
+//!    shared corner twice. The chords across the lower ring under them would have 3.75° corners.
+enum class CombTeeth { Attached, Lone };
+MeshSoup comb_cut_cylinder(CombTeeth teeth);
 
 //! \p soup with a separate right triangle of unit legs added at \p corner (in z = corner's z):
 //! a fragment, whose outline is a three-edge loop.

@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/metrics.h"
+#include "server/geometry/patch_quality.h"
 #include "tests/support/mesh_factory.h"
 
 namespace touchmend::geometry {
@@ -81,7 +84,7 @@ TEST(PinchClosing, CornersWhoseClosingEdgesExistAreRefused) {
 // the axis), not with a chord across the ring under them (its normal along the axis), though
 // the chords have the larger smallest angles.
 TEST(PinchClosing, ACombOfTeethIsClosedAlongTheWallNotAcrossTheRing) {
-  Mesh mesh = build_mesh(testing::comb_cut_cylinder()).mesh;
+  Mesh mesh = build_mesh(testing::comb_cut_cylinder(testing::CombTeeth::Lone)).mesh;
   Hole hole;
   for (const Hole& h : find_holes(mesh).holes)
     if (h.pinched_at.size() > hole.pinched_at.size()) hole = h;
@@ -95,6 +98,68 @@ TEST(PinchClosing, ACombOfTeethIsClosedAlongTheWallNotAcrossTheRing) {
     EXPECT_LT(std::abs(n[2]), 0.05) << "face " << f.idx() << " normal " << n;
   }
   EXPECT_EQ(validate_mesh(mesh).non_manifold_vertices, 0u);
+}
+
+//! The cut of an attached comb (testing::comb_cut_cylinder): the hole that is not one of the
+//! cylinder's two open ends (48 edges each).
+Hole attached_comb_hole(const Mesh& mesh) {
+  for (const Hole& h : find_holes(mesh).holes)
+    if (h.loop.size() != 48) return h;
+  return {};
+}
+
+// The attached comb's gaps are narrow notches of its loop: each is closed with its ear, which
+// is the triangle the cut took (on the wall: its normal across the axis; its corner the gap's
+// 1.9°), and the loop left is the hole's, one vertex shorter per ear.
+TEST(CloseNotches, ACombsGapsAreClosedWithTheTrianglesTheCutTook) {
+  Mesh mesh = build_mesh(testing::comb_cut_cylinder(testing::CombTeeth::Attached)).mesh;
+  const Hole hole = attached_comb_hole(mesh);
+  ASSERT_GT(hole.loop.size(), 20u);
+  const SearchReach reach = make_search_reach(mesh);
+  const PinchClosure closure = close_notches(mesh, hole, reach);
+  ASSERT_TRUE(closure.failure.empty()) << closure.failure;
+  EXPECT_GE(closure.faces.size(), 6u);  // 7 teeth in the sector
+  EXPECT_TRUE(closure.corners.empty());
+  for (const FaceHandle f : closure.faces) {
+    EXPECT_LT(std::abs(mesh.calc_face_normal(f)[2]), 0.05) << "face " << f.idx();
+    EXPECT_NEAR(min_angle_deg(mesh, std::vector<FaceHandle>{f}), 1.87, 0.05);
+  }
+  EXPECT_EQ(closure.hole.loop.size(), hole.loop.size() - closure.faces.size());
+  EXPECT_EQ(closure.hole.id, hole.id);
+  EXPECT_EQ(validate_mesh(mesh).non_manifold_edges, 0u);
+  bool found = false;
+  for (const Hole& h : find_holes(mesh).holes)
+    found = found || std::is_permutation(h.loop.begin(), h.loop.end(), closure.hole.loop.begin(),
+                                         closure.hole.loop.end());
+  EXPECT_TRUE(found);
+}
+
+// The tip of a spike of the surface into the hole is a narrow corner too, but its ear would lie
+// on the spike's back: it is left to the fill.
+TEST(CloseNotches, ASpikesTipIsNotANotch) {
+  Mesh mesh = build_mesh(testing::grid_with_round_hole()).mesh;
+  Hole hole;
+  for (const Hole& h : find_holes(mesh).holes)
+    if (h.loop.size() < 40) hole = h;  // the round hole, not the grid's border
+  ASSERT_GT(hole.loop.size(), 8u);
+  // Two triangles on the rim's consecutive u -> m -> w, meeting at a tip t across the hole.
+  const VertexHandle u = hole.loop[0], m = hole.loop[1], w = hole.loop[2];
+  const Vec3 inwards = (Vec3(8, 8, 0) - mesh.point(m)).normalize();
+  const VertexHandle t = mesh.add_vertex(mesh.point(m) + 7.5 * inwards);
+  ASSERT_TRUE(mesh.add_face(u, m, t).is_valid());
+  ASSERT_TRUE(mesh.add_face(m, w, t).is_valid());
+  const double tip_deg = std::acos(OpenMesh::dot((mesh.point(u) - mesh.point(t)).normalize(),
+                                                 (mesh.point(w) - mesh.point(t)).normalize())) *
+                         180 / std::numbers::pi;
+  ASSERT_LT(tip_deg, 15.0);
+  Hole spiked;
+  for (const Hole& h : find_holes(mesh).holes)
+    if (std::find(h.loop.begin(), h.loop.end(), t) != h.loop.end()) spiked = h;
+  ASSERT_FALSE(spiked.loop.empty());
+  const SearchReach reach = make_search_reach(mesh);
+  const PinchClosure closure = close_notches(mesh, spiked, reach);
+  EXPECT_TRUE(closure.faces.empty());
+  EXPECT_EQ(closure.hole.loop, spiked.loop);
 }
 
 }  // namespace
