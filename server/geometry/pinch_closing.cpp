@@ -155,7 +155,9 @@ PinchClosure close_notches(Mesh& mesh, const Hole& hole, const SearchReach& reac
   std::vector<HalfedgeHandle> halfedges = hole.halfedges;
   const double max_corner_cos = std::cos(kNotchMaxCornerDeg * std::numbers::pi / 180);
   // One ear at a time, the scan begun again after each: closing one changes the corners of its
-  // two neighbours.
+  // two neighbours. An ear refused for meeting the mesh or not linking in is not tried again
+  // (each such test is a search of the faces near it).
+  std::vector<std::array<VertexHandle, 3>> refused;
   for (bool closed = true; closed && loop.size() > 3;) {
     closed = false;
     const std::size_t n = loop.size();
@@ -176,8 +178,13 @@ PinchClosure close_notches(Mesh& mesh, const Hole& hole, const SearchReach& reac
         continue;
       if (folds_against_rim(mesh, {p, v, a}, {halfedges[previous], halfedges[i]}, kNotchMaxFoldCos))
         continue;
+      const std::array<VertexHandle, 3> ear{p, v, a};
+      if (std::find(refused.begin(), refused.end(), ear) != refused.end()) continue;
       const HalfedgeHandle joined = add_corner_face(mesh, p, v, a, reach);
-      if (!joined.is_valid()) continue;
+      if (!joined.is_valid()) {
+        refused.push_back(ear);
+        continue;
+      }
       out.faces.push_back(mesh.face_handle(mesh.opposite_halfedge_handle(joined)));
       halfedges[previous] = joined;
       loop.erase(loop.begin() + static_cast<std::ptrdiff_t>(i));
