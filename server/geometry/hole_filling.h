@@ -139,6 +139,8 @@ struct HoleFillReport {
   std::size_t pieces = 1;
   std::string creases;  //!< SharpMode::Auto: what crosses the hole and what was done with it
   std::size_t crease_curves = 0;  //!< curves the patch was split along
+  //! Rim corners closed with one triangle before the triangulation: the planar method's angles
+  //! under 5π/9 (seed 000 §3.4.2) and the narrow notches (FillOptions::close_notches).
   std::size_t angles_closed = 0;
   std::size_t refinement_rounds = 0;
   std::size_t splits = 0;
