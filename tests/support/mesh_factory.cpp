@@ -1,5 +1,6 @@
 #include "tests/support/mesh_factory.h"
 
+#include <array>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -189,6 +190,38 @@ MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double 
   return remove_faces(soup, [&](const Vec3& c) {
     return (c - centre).norm() < radius && !(island && c == *island);
   });
+}
+
+MeshSoup grid_with_a_slot_along_a_fold(double fold_deg) {
+  const double fold = fold_deg * std::numbers::pi / 180;
+  const std::vector<double> rows{-5, -4, -3, -2, -1, -0.1, 0, 0.1, 1, 2, 3, 4, 5};
+  const std::size_t crease_row = 6, columns = 11;
+  MeshSoup soup;
+  for (const double s : rows)
+    for (std::size_t i = 0; i < columns; ++i)
+      soup.points.push_back(
+          s >= 0 ? Vec3(static_cast<double>(i), s, 0)
+                 : Vec3(static_cast<double>(i), s * std::cos(fold), -s * std::sin(fold)));
+  const auto id = [&](std::size_t i, std::size_t j) {
+    return static_cast<std::uint32_t>(j * columns + i);
+  };
+  const auto slot = [&](std::uint32_t v) {
+    const std::size_t i = v % columns;
+    return v / columns == crease_row && i >= 5 && i <= 7;
+  };
+  for (std::size_t j = 0; j + 1 < rows.size(); ++j)
+    for (std::size_t i = 0; i + 1 < columns; ++i) {
+      std::array<geometry::Triangle, 2> quad;
+      if (j < crease_row)  // below the crease: the diagonal from (i, j + 1) to (i + 1, j)
+        quad = {geometry::Triangle{id(i, j), id(i + 1, j), id(i, j + 1)},
+                geometry::Triangle{id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)}};
+      else
+        quad = {geometry::Triangle{id(i, j), id(i + 1, j), id(i + 1, j + 1)},
+                geometry::Triangle{id(i, j), id(i + 1, j + 1), id(i, j + 1)}};
+      for (const geometry::Triangle& t : quad)
+        if (!slot(t[0]) && !slot(t[1]) && !slot(t[2])) soup.triangles.push_back(t);
+    }
+  return soup;
 }
 
 MeshSoup with_lone_triangle(MeshSoup soup, const Vec3& corner) {

@@ -61,6 +61,14 @@ MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double 
 enum class CombTeeth { Attached, Lone };
 MeshSoup comb_cut_cylinder(CombTeeth teeth);
 
+//! A grid folded by \p fold_deg along the x axis (the crease; 0: flat), x in [0, 10], with a
+//! slot cut along the crease from x = 4 to 8: the faces of the crease vertices at x = 5, 6, 7.
+//! Rows lie at 0.1 on either side of the crease and then 1 apart, and the diagonals of the two
+//! rows beside it run from the crease outwards, so the slot ends at crease vertex (4, 0, 0) in a
+//! narrow notch between (5, 0.1) on one side and (5, -0.1) on the other (8.1° folded by 90°,
+//! 11.4° flat), whose ear spans the slot across the crease.
+MeshSoup grid_with_a_slot_along_a_fold(double fold_deg);
+
 //! \p soup with a separate right triangle of unit legs added at \p corner (in z = corner's z):
 //! a fragment, whose outline is a three-edge loop.
 MeshSoup with_lone_triangle(MeshSoup soup, const Vec3& corner);

@@ -162,5 +162,27 @@ TEST(CloseNotches, ASpikesTipIsNotANotch) {
   EXPECT_EQ(closure.hole.loop, spiked.loop);
 }
 
+//! The ears close_notches makes on the slot of testing::grid_with_a_slot_along_a_fold.
+std::size_t ears_on_a_slot_along_a_fold(double fold_deg) {
+  Mesh mesh = build_mesh(testing::grid_with_a_slot_along_a_fold(fold_deg)).mesh;
+  Hole slot;
+  for (const Hole& h : find_holes(mesh).holes)
+    if (h.loop.size() < 20) slot = h;  // not the grid's border
+  EXPECT_GE(slot.loop.size(), 8u);
+  const SearchReach reach = make_search_reach(mesh);
+  const PinchClosure closure = close_notches(mesh, slot, reach);
+  EXPECT_TRUE(closure.failure.empty()) << closure.failure;
+  return closure.faces.size();
+}
+
+// A narrow notch whose two sides lie on the two faces of a crease: its ear would cut the crease
+// off as a chamfer (it folds by about 45° against either face), so it is left to the fill,
+// whose crease plan can keep the edge. The same slot on a flat grid is closed with its ear.
+TEST(CloseNotches, AnEarAcrossACreaseIsNotClosed) {
+  EXPECT_EQ(ears_on_a_slot_along_a_fold(90), 0u);   // a valley
+  EXPECT_EQ(ears_on_a_slot_along_a_fold(-90), 0u);  // a ridge
+  EXPECT_EQ(ears_on_a_slot_along_a_fold(0), 1u);
+}
+
 }  // namespace
 }  // namespace touchmend::geometry
