@@ -63,6 +63,8 @@ MeshSoup comb_cut_cylinder(CombTeeth teeth);
 
 //! A grid folded by \p fold_deg along the x axis (the crease; 0: flat), x in [0, 10], with a
 //! slot cut along the crease from x = 4 to 8: the faces of the crease vertices at x = 5, 6, 7.
+//! The half y >= 0 lies in z = 0 facing +z; the other half turns up by the fold (a valley for a
+//! positive angle, a ridge for a negative one).
 //! Rows lie at 0.1 on either side of the crease and then 1 apart, and the diagonals of the two
 //! rows beside it run from the crease outwards, so the slot ends at crease vertex (4, 0, 0) in a
 //! narrow notch between (5, 0.1) on one side and (5, -0.1) on the other (8.1° folded by 90°,
