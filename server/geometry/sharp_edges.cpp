@@ -1766,28 +1766,12 @@ bool triangulate_region(const std::vector<int>& region, const std::vector<Vec3>&
 
 namespace {
 
-//! The point of segment \p a-\p b nearest \p p, and its parameter along the segment.
-std::pair<Vec3, double> nearest_on_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
-  const Vec3 d = b - a;
-  const double length2 = d.sqrnorm();
-  const double t = length2 > 0 ? std::clamp(OpenMesh::dot(p - a, d) / length2, 0.0, 1.0) : 0.0;
-  return {a + t * d, t};
-}
-
 //! Where a curve passes (within a third of its sample spacing) by a boundary vertex other than
 //! its ends, the crease runs through that vertex: the curve is cut there into two curves that
 //! end on it (a piece joining two neighbouring boundary vertices is the boundary edge itself
 //! and is dropped). Left as it was, the sample beside the boundary vertex would make a sliver
 //! between the curve and the boundary that nothing downstream can mend, both being fixed.
-//! Not where boundary vertices that near lie on both sides of the curve: it runs down a channel
-//! of the hole, and through one of them it would cut the other side off. The sample moves
-//! along the curve to the point nearest the nearer vertex instead (meeting it square). A slot
-//! cut along a crease (its rim a tenth of an edge off the crease on both faces) was otherwise
-//! routed along one face's rim vertices, and the fill cut the crease off as a chamfer.
 std::vector<CurveSplitInput::Curve> attach_curves_to_boundary(const CurveSplitInput& input) {
-  // A sample moves by at most this share of the segment to the next or the previous sample, so
-  // two neighbours that both move stay apart.
-  constexpr double kLargestMove = 0.4;
   const int loop_n = static_cast<int>(input.loop.size());
   std::vector<CurveSplitInput::Curve> out;
   // A piece without samples between two neighbouring boundary vertices runs along the boundary
@@ -1822,36 +1806,15 @@ std::vector<CurveSplitInput::Curve> attach_curves_to_boundary(const CurveSplitIn
     const double reach = length / static_cast<double>(curve.interior.size() + 1) / 3.0;
     CurveSplitInput::Curve piece;
     piece.from = curve.from;
-    const std::size_t samples = curve.interior.size();
-    for (std::size_t k = 0; k < samples; ++k) {
-      Vec3 p = curve.interior[k];
-      const Vec3 before = k > 0 ? curve.interior[k - 1] : start;
-      const Vec3 after = k + 1 < samples ? curve.interior[k + 1] : end;
-      const Vec3 across = OpenMesh::cross(after - before, input.normal);
+    for (const Vec3& p : curve.interior) {
       int touched = -1;
       double nearest = reach;
-      bool left = false, right = false;
       for (int i = 0; i < loop_n; ++i) {
         const double d = (p - input.loop[static_cast<std::size_t>(i)]).norm();
-        if (!(d < reach)) continue;
-        if (i != piece.from && i != curve.to) {
-          const double side = OpenMesh::dot(input.loop[static_cast<std::size_t>(i)] - p, across);
-          (side > 0 ? left : right) = true;
-        }
         if (d < nearest) {
           nearest = d;
           touched = i;
         }
-      }
-      if (touched >= 0 && left && right) {
-        // The curve's nearest point to the boundary vertex, on the segments beside the sample.
-        const Vec3& r = input.loop[static_cast<std::size_t>(touched)];
-        const auto [foot_before, t_before] = nearest_on_segment(r, before, p);
-        const auto [foot_after, t_after] = nearest_on_segment(r, p, after);
-        p = (r - foot_after).sqrnorm() < (r - foot_before).sqrnorm()
-                ? p + std::min(t_after, kLargestMove) * (after - p)
-                : before + std::max(t_before, 1 - kLargestMove) * (p - before);
-        touched = -1;
       }
       if (touched < 0) {
         piece.interior.push_back(p);

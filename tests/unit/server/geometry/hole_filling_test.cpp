@@ -621,35 +621,6 @@ TEST(FillHole, ACombOfTeethOnACylinderWallIsFilledAlongTheWall) {
   }
 }
 
-// A slot cut along a crease, ending in a narrow notch across it: the notch's ear would chamfer
-// the crease (0.07 off it), so it is left to the fill, which splits along the crease and lies
-// on the two faces, for a valley and a ridge alike.
-TEST(FillHole, ASlotAlongACreaseIsFilledWithTheCreaseKept) {
-  for (const double fold_deg : {90.0, -90.0}) {
-    SCOPED_TRACE(fmt::format("folded by {}°", fold_deg));
-    const FillRun run = fill_and_check(testing::grid_with_a_slot_along_a_fold(fold_deg), {},
-                                       [](const Hole& h) { return h.loop.size() < 20; });
-    ASSERT_EQ(run.reports.size(), 1u);
-    const HoleFillReport& r = run.reports[0];
-    ASSERT_TRUE(r.filled) << r.reason;
-    EXPECT_EQ(r.method, FillMethod::CreaseSplit) << to_string(r.method);
-    EXPECT_EQ(find_holes(run.mesh).holes.size(), 1u);  // the grid's border
-    EXPECT_TRUE(find_face_intersections(run.mesh, r.new_faces).empty());
-    // The folded grid: y >= 0 in z = 0, and the half-plane from the x axis along `face`.
-    const double fold = fold_deg * std::numbers::pi / 180;
-    const Vec3 face(0, -std::cos(fold), std::sin(fold));
-    const auto off_the_fold = [&](const Vec3& p) {
-      const Vec3 across(0, p[1], p[2]);
-      const double along = OpenMesh::dot(across, face);
-      return std::min(p[1] >= 0 ? std::abs(p[2]) : across.norm(),
-                      along >= 0 ? (across - along * face).norm() : across.norm());
-    };
-    for (const FaceHandle f : r.new_faces)
-      for (const VertexHandle v : run.mesh.fv_range(f))
-        EXPECT_LT(off_the_fold(run.mesh.point(v)), 1e-6) << "vertex " << v.idx();
-  }
-}
-
 // The outside of a flat bowtie: one triangle closes the pinch, but every patch of the four-edge
 // loop left would lie on the bowtie's own triangles. The hole stays open, says why, and the
 // triangle across the pinch is taken out again: the mesh is as it was.
