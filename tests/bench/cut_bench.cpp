@@ -8,11 +8,18 @@
 // corners allow 15°), and the one-sided mean and Hausdorff distance from the patch to the removed
 // faces in per mille of the diagonal. The cut sequence depends on the seeds only, so two builds
 // can be compared fill by fill (--per-hole).
+//
+// --along-creases cuts slots along the meshes' creases instead: where a scanner loses data at
+// sharp edges. Each cut removes the faces whose centroids lie within a random radius of 1-3
+// runs of crease edges (dihedral over 60°, as BASELINE.md counts creases), and is scored also by
+// its crease distance: the largest distance from the removed crease edges to the cut's patches.
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <map>
 #include <numbers>
 #include <random>
 #include <set>
@@ -91,6 +98,87 @@ double smallest_rim_corner(const geo::Mesh& mesh, const geo::Hole& hole,
   return smallest;
 }
 
+//! A crease edge for --along-creases: dihedral over this (BASELINE.md's "sharp edges").
+constexpr double kCreaseDeg = 60.0;
+
+bool is_crease(const geo::Mesh& mesh, geo::EdgeHandle e) {
+  if (mesh.is_boundary(e)) return false;
+  const geo::HalfedgeHandle h = mesh.halfedge_handle(e, 0);
+  const geo::Vec3 a = mesh.calc_face_normal(mesh.face_handle(h));
+  const geo::Vec3 b = mesh.calc_face_normal(mesh.face_handle(mesh.opposite_halfedge_handle(h)));
+  return OpenMesh::dot(a, b) < std::cos(kCreaseDeg * std::numbers::pi / 180);
+}
+
+//! The crease run through crease edge \p start: followed both ways, at each vertex along the
+//! crease edge that turns least (under 45°), until it is \p length long in all, ends, or closes.
+std::vector<geo::Vec3> crease_run(const geo::Mesh& mesh, geo::EdgeHandle start, double length) {
+  const double straight_enough = std::cos(std::numbers::pi / 4);
+  std::set<int> taken{start.idx()};
+  double walked = (mesh.point(mesh.to_vertex_handle(mesh.halfedge_handle(start, 0))) -
+                   mesh.point(mesh.from_vertex_handle(mesh.halfedge_handle(start, 0))))
+                      .norm();
+  std::array<std::vector<geo::Vec3>, 2> sides;
+  for (int side = 0; side < 2; ++side) {
+    geo::HalfedgeHandle h = mesh.halfedge_handle(start, static_cast<unsigned>(side));
+    sides[static_cast<std::size_t>(side)].push_back(mesh.point(mesh.to_vertex_handle(h)));
+    while (walked < length) {
+      const geo::Vec3 heading =
+          (mesh.point(mesh.to_vertex_handle(h)) - mesh.point(mesh.from_vertex_handle(h)))
+              .normalize_cond();
+      geo::HalfedgeHandle next;
+      double best = straight_enough;
+      for (const geo::HalfedgeHandle o : mesh.voh_range(mesh.to_vertex_handle(h))) {
+        const geo::EdgeHandle e = mesh.edge_handle(o);
+        if (taken.count(e.idx()) || !is_crease(mesh, e)) continue;
+        const geo::Vec3 d =
+            (mesh.point(mesh.to_vertex_handle(o)) - mesh.point(mesh.from_vertex_handle(o)))
+                .normalize_cond();
+        if (const double c = OpenMesh::dot(d, heading); c > best) {
+          best = c;
+          next = o;
+        }
+      }
+      if (!next.is_valid()) break;
+      taken.insert(mesh.edge_handle(next).idx());
+      walked += mesh.calc_edge_length(next);
+      h = next;
+      sides[static_cast<std::size_t>(side)].push_back(mesh.point(mesh.to_vertex_handle(h)));
+    }
+  }
+  std::vector<geo::Vec3> run(sides[1].rbegin(), sides[1].rend());
+  run.insert(run.end(), sides[0].begin(), sides[0].end());
+  return run;
+}
+
+double distance_to_run(const geo::Vec3& p, const std::vector<geo::Vec3>& run) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i + 1 < run.size(); ++i) {
+    const geo::Vec3 d = run[i + 1] - run[i];
+    const double t =
+        std::clamp(OpenMesh::dot(p - run[i], d) / std::max(d.sqrnorm(), 1e-300), 0.0, 1.0);
+    best = std::min(best, (p - (run[i] + t * d)).norm());
+  }
+  return best;
+}
+
+//! The crease edges among \p removed triangles: edges both of whose faces were removed, with a
+//! dihedral over kCreaseDeg.
+std::vector<std::array<geo::Vec3, 2>> removed_creases(
+    const std::vector<geo::TrianglePoints>& removed) {
+  std::map<EdgeKey, std::vector<geo::Vec3>> normals;
+  for (const geo::TrianglePoints& t : removed) {
+    const geo::Vec3 n = OpenMesh::cross(t[1] - t[0], t[2] - t[0]).normalize_cond();
+    for (std::size_t k = 0; k < 3; ++k) normals[edge_key(t[k], t[(k + 1) % 3])].push_back(n);
+  }
+  std::vector<std::array<geo::Vec3, 2>> out;
+  const double limit = std::cos(kCreaseDeg * std::numbers::pi / 180);
+  for (const auto& [edge, n] : normals)
+    if (n.size() == 2 && OpenMesh::dot(n[0], n[1]) < limit)
+      out.push_back({geo::Vec3(edge.first[0], edge.first[1], edge.first[2]),
+                     geo::Vec3(edge.second[0], edge.second[1], edge.second[2])});
+  return out;
+}
+
 double quantile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -102,6 +190,8 @@ struct Tally {
               fragments = 0, invariant_failures = 0, degenerate = 0, under_15 = 0,
               under_15_rim_allows = 0;
   std::vector<double> mean, hausdorff, ms;
+  //! --along-creases: per cut, the crease distance (‰); cuts with a hole left open have none.
+  std::vector<double> crease;
   std::vector<std::string> open_holes;  //!< where and why, one line each
 
   void add(const Tally& o) {
@@ -119,18 +209,23 @@ struct Tally {
     mean.insert(mean.end(), o.mean.begin(), o.mean.end());
     hausdorff.insert(hausdorff.end(), o.hausdorff.begin(), o.hausdorff.end());
     ms.insert(ms.end(), o.ms.begin(), o.ms.end());
+    crease.insert(crease.end(), o.crease.begin(), o.crease.end());
     open_holes.insert(open_holes.end(), o.open_holes.begin(), o.open_holes.end());
   }
 };
 
-void print_row(const std::string& name, const Tally& t) {
+void print_row(const std::string& name, const Tally& t, bool crease_column) {
   fmt::print(
       "| {} | {} | {} | {} | {} | {} | {} | {} | {} ({}) | {:.2f} / {:.2f} | {:.2f} / {:.2f} | "
-      "{:.2f} / {:.2f} |\n",
+      "{:.2f} / {:.2f} |",
       name, t.cuts, t.holes, t.closed, t.open, t.fragments, t.invariant_failures, t.degenerate,
       t.under_15, t.under_15_rim_allows, quantile(t.mean, 0.5), quantile(t.mean, 0.9),
       quantile(t.hausdorff, 0.5), quantile(t.hausdorff, 0.9), quantile(t.ms, 0.5),
       quantile(t.ms, 1.0));
+  if (crease_column)
+    fmt::print(" {:.2f} / {:.2f} / {:.2f} ({}) |", quantile(t.crease, 0.5), quantile(t.crease, 0.9),
+               quantile(t.crease, 1.0), t.crease.size());
+  fmt::print("\n");
 }
 
 }  // namespace
@@ -177,6 +272,11 @@ int main(int argc, char** argv) {
                  "fill it again with the touchmend command line");
   app.add_flag("--per-hole", per_hole,
                "Also print one line per hole (for comparing two builds fill by fill)");
+  bool along_creases = false;
+  app.add_flag("--along-creases", along_creases,
+               "Cut slots along the meshes' creases (dihedral over 60°) instead of balls: 1-3 "
+               "crease runs per cut, each 2-20% of the diagonal long, the faces within 0.2-2% of "
+               "it removed; also scores the crease distance (meshes without creases are skipped)");
   CLI11_PARSE(app, argc, argv);
   if (last_seed < first_seed) {
     fmt::print(stderr, "--last-seed {} is before --first-seed {}\n", last_seed, first_seed);
@@ -190,16 +290,18 @@ int main(int argc, char** argv) {
   base.remove_fragments = remove_fragments;
 
   const std::string dir = tmd::testing::shared_data_dir() + "/meshes";
-  fmt::print(
-      "cuts: seeds {}-{}, {} per mesh and seed, 1-5 balls of radius up to {} diagonals; {}\n\n",
-      first_seed, last_seed, cuts_per_mesh, max_radius,
-      mix ? "options drawn per cut (--mix)"
-          : fmt::format("--shape {} --sharp {} --refine-iterations {}{}", shape, sharp,
-                        refine_iterations, remove_fragments ? " --remove-fragments" : ""));
+  fmt::print("cuts: seeds {}-{}, {} per mesh and seed, {}; {}\n\n", first_seed, last_seed,
+             cuts_per_mesh,
+             along_creases ? std::string("slots along 1-3 crease runs")
+                           : fmt::format("1-5 balls of radius up to {} diagonals", max_radius),
+             mix ? "options drawn per cut (--mix)"
+                 : fmt::format("--shape {} --sharp {} --refine-iterations {}{}", shape, sharp,
+                               refine_iterations, remove_fragments ? " --remove-fragments" : ""));
   fmt::print(
       "| mesh | cuts | holes cut | closed | left open | fragments removed | invariant failures | "
       "degenerate | under 15° (rim allows) | mean ‰ p50 / p90 | H ‰ p50 / p90 | fill ms p50 / max "
-      "|\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "|{}\n|---|---|---|---|---|---|---|---|---|---|---|---|{}\n",
+      along_creases ? " crease ‰ p50 / p90 / max (cuts) |" : "", along_creases ? "---|" : "");
   Tally total;
   std::vector<std::string> hole_lines;
   for (const std::string& name : meshes) {
@@ -211,7 +313,17 @@ int main(int argc, char** argv) {
     geo::Box3 box;
     for (const geo::Vec3& p : read.soup.points) box.extend(Eigen::Vector3d(p[0], p[1], p[2]));
     const double diagonal = box.diagonal().norm();
-    const std::set<EdgeKey> own_boundary = boundary_edges(geo::build_mesh(read.soup).mesh);
+    const geo::Mesh original = geo::build_mesh(read.soup).mesh;
+    const std::set<EdgeKey> own_boundary = boundary_edges(original);
+    std::vector<geo::EdgeHandle> creases;
+    if (along_creases) {
+      for (const geo::EdgeHandle e : original.edges())
+        if (is_crease(original, e)) creases.push_back(e);
+      if (creases.empty()) {
+        fmt::print(stderr, "skip {}: no crease edges\n", name);
+        continue;
+      }
+    }
     Tally tally;
     for (int seed = first_seed; seed <= last_seed; ++seed) {
       // One stream per mesh and seed: adding a mesh or changing --cuts leaves the others' cuts.
@@ -220,7 +332,20 @@ int main(int argc, char** argv) {
         name_hash = (name_hash ^ static_cast<unsigned char>(ch)) * 16777619u;
       std::mt19937 random(static_cast<std::uint32_t>(seed) * 7919u + name_hash);
       for (int cut = 0; cut < cuts_per_mesh; ++cut) {
-        const int balls = std::uniform_int_distribution<int>(1, 5)(random);
+        const int balls = along_creases ? 0 : std::uniform_int_distribution<int>(1, 5)(random);
+        std::vector<std::pair<std::vector<geo::Vec3>, double>> slots;
+        if (along_creases) {
+          const int runs = std::uniform_int_distribution<int>(1, 3)(random);
+          for (int k = 0; k < runs; ++k) {
+            const geo::EdgeHandle start =
+                creases[std::uniform_int_distribution<std::size_t>(0, creases.size() - 1)(random)];
+            const double length =
+                diagonal * std::uniform_real_distribution<double>(0.02, 0.2)(random);
+            const double radius =
+                diagonal * std::uniform_real_distribution<double>(0.002, 0.02)(random);
+            slots.emplace_back(crease_run(original, start, length), radius);
+          }
+        }
         std::vector<std::pair<geo::Vec3, double>> spheres;
         for (int b = 0; b < balls; ++b) {
           const geo::Vec3 centre = read.soup.points[std::uniform_int_distribution<std::size_t>(
@@ -255,13 +380,20 @@ int main(int argc, char** argv) {
         const std::string where = fmt::format("{} seed {} cut {}", name, seed, cut);
         if (!only.empty() && only != fmt::format("{}:{}:{}", name, seed, cut)) continue;
         // One cut asked for: its balls, to rebuild it elsewhere (a test, a bug report).
-        if (!only.empty())
+        if (!only.empty()) {
           for (const auto& [centre, radius] : spheres)
             fmt::print("ball centre ({:.9g}, {:.9g}, {:.9g}) radius {:.9g}\n", centre[0], centre[1],
                        centre[2], radius);
+          for (const auto& [run, radius] : slots)
+            fmt::print(
+                "slot of radius {:.9g} along {} crease points from ({:.9g}, {:.9g}, {:.9g})\n",
+                radius, run.size(), run.front()[0], run.front()[1], run.front()[2]);
+        }
         const auto in_cut = [&](const geo::Vec3& c) {
           return std::any_of(spheres.begin(), spheres.end(),
-                             [&](const auto& s) { return (c - s.first).norm() < s.second; });
+                             [&](const auto& s) { return (c - s.first).norm() < s.second; }) ||
+                 std::any_of(slots.begin(), slots.end(),
+                             [&](const auto& s) { return distance_to_run(c, s.first) < s.second; });
         };
         std::vector<geo::TrianglePoints> removed;
         const geo::MeshSoup holed = tmd::testing::remove_faces(read.soup, in_cut, &removed);
@@ -283,9 +415,15 @@ int main(int argc, char** argv) {
           ++tally.invariant_failures;
           fmt::print(stderr, "invariants broken ({}): {}\n", where, problems);
         }
+        std::vector<geo::TrianglePoints> cut_patches;  // every new face of the cut
+        bool cut_left_open = false;
         for (const geo::HoleFillReport& r : report.holes) {
           const auto found = geo::find_hole_by_id(holes, r.hole_id);
           if (!found) continue;
+          if (r.filled) {
+            const auto patch = geo::face_triangles(mesh, r.new_faces);
+            cut_patches.insert(cut_patches.end(), patch.begin(), patch.end());
+          }
           const geo::Hole& hole = holes[*found];
           std::size_t own_edges = 0;
           for (std::size_t i = 0; i < hole.loop.size(); ++i)
@@ -307,6 +445,7 @@ int main(int argc, char** argv) {
             line += fmt::format("fragment of {} faces removed", r.removed_faces.size());
           } else if (!r.filled) {
             ++tally.open;
+            cut_left_open = true;
             tally.open_holes.push_back(fmt::format("{} hole {} ({} edges): {}", where, r.hole_id,
                                                    r.boundary_vertices, r.reason));
             line += "open: " + r.reason;
@@ -337,12 +476,22 @@ int main(int argc, char** argv) {
           }
           if (per_hole) hole_lines.push_back(std::move(line));
         }
+        if (along_creases && !cut_left_open) {
+          const auto gt = removed_creases(removed);
+          const geo::SegmentDistance d = geo::segment_distance(gt, cut_patches, 2e-3 * diagonal);
+          if (d.valid) {
+            tally.crease.push_back(1e3 * d.max / diagonal);
+            if (per_hole)
+              hole_lines.push_back(fmt::format("{}: crease H {:.3f}‰ over {} crease edges", where,
+                                               tally.crease.back(), gt.size()));
+          }
+        }
       }
     }
-    print_row(name, tally);
+    print_row(name, tally, along_creases);
     total.add(tally);
   }
-  print_row("all", total);
+  print_row("all", total, along_creases);
   fmt::print(
       "\nthe meshes' own openings, filled too and not scored: {}; cut holes that met one (closed "
       "and angles counted, distances not): {}\n",
