@@ -24,6 +24,7 @@
 #include "server/geometry/planar_triangulation.h"
 #include "server/geometry/projection.h"
 #include "server/geometry/refinement.h"
+#include "server/geometry/ring_joining.h"
 
 namespace touchmend::geometry {
 namespace {
@@ -1718,6 +1719,53 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
   return report;
 }
 
+//! The two borders of a ring-shaped hole joined and filled as one loop (ring_joining.h). The
+//! outer loop's report carries the patch (the joining triangles first); the inner loop's is
+//! filled with no faces of its own and says by which patch. When the outer report is not
+//! filled, the mesh is as it was (the caller then fills each alone).
+std::pair<HoleFillReport, HoleFillReport> fill_ring(Mesh& mesh, const Hole& outer,
+                                                    const Hole& inner, const FillOptions& options,
+                                                    SearchReach& reach) {
+  const auto start = Clock::now();
+  std::pair<HoleFillReport, HoleFillReport> out;
+  out.first.hole_id = outer.id;
+  out.first.boundary_vertices = outer.loop.size();
+  const RingJoin join = join_ring_borders(mesh, outer, inner, reach);
+  if (!join.failure.empty()) {
+    out.first.reason = join.failure;
+    return out;
+  }
+  reach.add(mesh, join.faces);
+  HoleFillReport filled = fill_hole_cached(mesh, join.hole, options, reach);
+  if (!filled.filled) {
+    remove_patch(mesh, join.faces, {});
+    out.first.reason = filled.reason;
+    return out;
+  }
+  filled.hole_id = outer.id;
+  filled.boundary_vertices = outer.loop.size();
+  filled.new_faces.insert(filled.new_faces.begin(), join.faces.begin(), join.faces.end());
+  filled.faces_added += join.faces.size();
+  filled.min_angle_deg = min_angle_deg(mesh, filled.new_faces);
+  filled.warnings.insert(
+      filled.warnings.begin(),
+      fmt::format("filled as one ring with hole {}, its inner border (joined by {} triangles)",
+                  inner.id, join.faces.size()));
+  filled.seconds = seconds_since(start);
+  HoleFillReport& closed = out.second;
+  closed.hole_id = inner.id;
+  closed.boundary_vertices = inner.loop.size();
+  closed.filled = true;
+  closed.method = filled.method;
+  closed.shape = filled.shape;
+  closed.shape_reason = filled.shape_reason;
+  closed.min_angle_deg = filled.min_angle_deg;
+  closed.warnings.push_back(fmt::format(
+      "closed by hole {}'s patch: the two are the borders of one ring-shaped hole", outer.id));
+  out.first = std::move(filled);
+  return out;
+}
+
 }  // namespace
 
 HoleFillReport fill_hole(Mesh& mesh, const Hole& hole, const FillOptions& options) {
@@ -1797,10 +1845,49 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
         !spare(mesh.property(mesh.face_status_pph()).data_vector().capacity(), nf))
       mesh.reserve(nv + nv / 4 + 4096, ne + ne / 4 + 6144, nf + nf / 4 + 4096);
   }
+  const auto over_limit = [&](const Hole& hole) {
+    return selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary;
+  };
+  // The two borders of a ring-shaped hole, both selected, are filled together when the first
+  // of them comes (ring_joining.h); the second's report is kept for its place in the order.
+  std::vector<std::optional<std::size_t>> ring_partner(selected.size());
+  std::vector<char> ring_outer(selected.size(), 0);
+  if (options.join_ring_borders && selected.size() >= 2) {
+    std::vector<const Hole*> candidates;
+    std::vector<std::size_t> index;
+    for (std::size_t i = 0; i < selected.size(); ++i)
+      if (!over_limit(*selected[i])) {
+        candidates.push_back(selected[i]);
+        index.push_back(i);
+      }
+    for (const auto& [o, in] : find_ring_borders(mesh, candidates)) {
+      ring_partner[index[o]] = index[in];
+      ring_partner[index[in]] = index[o];
+      ring_outer[index[o]] = 1;
+    }
+  }
+  std::vector<std::optional<HoleFillReport>> filled_with_partner(selected.size());
   report.prepare_seconds = seconds_since(prepare_start);
   for (std::size_t i = 0; i < selected.size(); ++i) {
     const Hole& hole = *selected[i];  // properties completed just before filling
-    if (selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary) {
+    if (filled_with_partner[i]) {
+      report.holes.push_back(std::move(*filled_with_partner[i]));
+    } else if (ring_partner[i] && !filled_with_partner[*ring_partner[i]]) {
+      const std::size_t partner = *ring_partner[i];
+      const Hole& outer = ring_outer[i] ? hole : *selected[partner];
+      const Hole& inner = ring_outer[i] ? *selected[partner] : hole;
+      auto [outer_report, inner_report] = fill_ring(mesh, outer, inner, options, reach);
+      if (!outer_report.filled) {
+        // Each alone, in the selection's order, as if they had not been paired.
+        if (!selected[i]->projectability_computed)
+          compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
+        report.holes.push_back(fill_hole_cached(mesh, hole, options, reach));
+        ring_partner[partner].reset();
+      } else {
+        report.holes.push_back(std::move(ring_outer[i] ? outer_report : inner_report));
+        filled_with_partner[partner] = std::move(ring_outer[i] ? inner_report : outer_report);
+      }
+    } else if (over_limit(hole)) {
       HoleFillReport skipped;
       skipped.hole_id = hole.id;
       skipped.boundary_vertices = hole.loop.size();

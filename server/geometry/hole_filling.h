@@ -118,6 +118,10 @@ struct FillOptions {
   //! those continue the surface (pinch_closing.h: close_notches); counted in angles_closed. Not
   //! under explicit_creases, whose picks name rim vertices an ear would take out of the loop.
   bool close_notches = true;
+  //! fill_holes: two selected loops that border one ring-shaped hole (one inside the other on
+  //! one plane, running opposite ways: ring_joining.h) are joined by two triangles and filled
+  //! as one loop; if that fails, each is filled alone.
+  bool join_ring_borders = true;
 };
 
 struct HoleFillReport {

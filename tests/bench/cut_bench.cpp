@@ -449,6 +449,11 @@ int main(int argc, char** argv) {
             tally.open_holes.push_back(fmt::format("{} hole {} ({} edges): {}", where, r.hole_id,
                                                    r.boundary_vertices, r.reason));
             line += "open: " + r.reason;
+          } else if (r.new_faces.empty()) {
+            // Closed by another hole's patch (the borders of one ring): scored with that one.
+            ++tally.closed;
+            line += "closed with another hole: " +
+                    (r.warnings.empty() ? std::string() : r.warnings.front());
           } else {
             ++tally.closed;
             const double angle = geo::min_angle_deg(mesh, r.new_faces);

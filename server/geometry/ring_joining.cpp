@@ -1,0 +1,206 @@
+#include "server/geometry/ring_joining.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "server/geometry/intersection.h"
+
+namespace touchmend::geometry {
+
+namespace {
+
+//! Quads tried, shortest first, before the join is given up.
+constexpr std::size_t kJoinCandidates = 8;
+//! The joining triangles fold against each other by at most 60°, and each is no needle.
+constexpr double kJoinFoldCos = 0.5;
+constexpr double kJoinMinAngleSine = 0.02;  // about 1.1°
+//! A loop's rim faces "face its Newell normal's way" when the mean cosine passes this.
+constexpr double kRimFacingCos = 0.25;
+
+struct PlaneFrame {
+  Vec3 origin, normal, u, v;
+  std::array<double, 2> project(const Vec3& p) const {
+    const Vec3 d = p - origin;
+    return {OpenMesh::dot(d, u), OpenMesh::dot(d, v)};
+  }
+};
+
+PlaneFrame frame_of(const Hole& hole) {
+  PlaneFrame f{hole.centroid, hole.newell_normal, {}, {}};
+  const Vec3 axis = std::abs(f.normal[0]) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+  f.u = OpenMesh::cross(f.normal, axis).normalize_cond();
+  f.v = OpenMesh::cross(f.normal, f.u);
+  return f;
+}
+
+//! Even-odd test of \p point against the closed polygon \p outline.
+bool inside(const std::vector<std::array<double, 2>>& outline, const std::array<double, 2>& point) {
+  bool in = false;
+  for (std::size_t i = 0, j = outline.size() - 1; i < outline.size(); j = i++) {
+    const auto& a = outline[i];
+    const auto& b = outline[j];
+    if ((a[1] > point[1]) != (b[1] > point[1]) &&
+        point[0] < (b[0] - a[0]) * (point[1] - a[1]) / (b[1] - a[1]) + a[0])
+      in = !in;
+  }
+  return in;
+}
+
+Vec3 unit_normal(const Vec3& a, const Vec3& b, const Vec3& c) {
+  return OpenMesh::cross(b - a, c - a).normalize_cond();
+}
+
+//! The mean over \p hole's rim faces of their unit normals' cosine with \p direction.
+double rim_faces_along(const Mesh& mesh, const Hole& hole, const Vec3& direction) {
+  double sum = 0;
+  std::size_t faces = 0;
+  for (const HalfedgeHandle h : hole.halfedges) {
+    const FaceHandle f = mesh.face_handle(mesh.opposite_halfedge_handle(h));
+    if (!f.is_valid()) continue;
+    sum += OpenMesh::dot(mesh.calc_face_normal(f), direction);
+    ++faces;
+  }
+  return faces > 0 ? sum / static_cast<double>(faces) : 0;
+}
+
+}  // namespace
+
+bool borders_one_ring(const Mesh& mesh, const Hole& outer, const Hole& inner,
+                      const RingBorderOptions& options) {
+  if (outer.loop.size() < 3 || inner.loop.size() < 3 || !outer.pinched_at.empty() ||
+      !inner.pinched_at.empty() || !outer.unfillable_reason.empty() ||
+      !inner.unfillable_reason.empty() || !(outer.area > 0) || !(inner.area > 0) ||
+      inner.area >= outer.area)
+    return false;
+  // Opposite ways round: the two borders of one region.
+  if (!(OpenMesh::dot(outer.newell_normal, inner.newell_normal) < -0.5)) return false;
+  // The region lies inside the outer loop and outside the inner one. A patch of a loop faces
+  // its Newell normal's way; the surface beside a loop whose region lies outside it (the border
+  // of an open sheet, an island's border) faces the other way where it lies in the plane. Walls
+  // standing on the plane (a counterbore's) face across it and decide nothing.
+  if (rim_faces_along(mesh, outer, outer.newell_normal) < -kRimFacingCos ||
+      rim_faces_along(mesh, inner, inner.newell_normal) > kRimFacingCos)
+    return false;
+  const double radius = std::sqrt(outer.area / std::numbers::pi);
+  const double off_plane = options.max_off_plane * radius;
+  if (outer.planarity > off_plane) return false;
+  const PlaneFrame plane = frame_of(outer);
+  std::vector<std::array<double, 2>> outline;
+  outline.reserve(outer.loop.size());
+  for (const VertexHandle v : outer.loop) outline.push_back(plane.project(mesh.point(v)));
+  for (const VertexHandle v : inner.loop) {
+    const Vec3& p = mesh.point(v);
+    if (std::abs(OpenMesh::dot(p - plane.origin, plane.normal)) > off_plane) return false;
+    if (!inside(outline, plane.project(p))) return false;
+  }
+  return true;
+}
+
+std::vector<std::pair<std::size_t, std::size_t>> find_ring_borders(
+    const Mesh& mesh, std::span<const Hole* const> holes, const RingBorderOptions& options) {
+  // Each hole's box, to skip the pairs whose boxes do not nest.
+  std::vector<std::pair<Vec3, Vec3>> boxes;
+  for (const Hole* h : holes) {
+    Vec3 lo(1e300, 1e300, 1e300), hi(-1e300, -1e300, -1e300);
+    for (const VertexHandle v : h->loop) {
+      lo.minimize(mesh.point(v));
+      hi.maximize(mesh.point(v));
+    }
+    boxes.emplace_back(lo, hi);
+  }
+  std::vector<std::vector<std::size_t>> inside_of(holes.size());
+  std::vector<std::size_t> enclosing(holes.size(), 0);
+  for (std::size_t o = 0; o < holes.size(); ++o)
+    for (std::size_t i = 0; i < holes.size(); ++i) {
+      if (i == o) continue;
+      const double slack = 0.1 * (boxes[o].second - boxes[o].first).norm();
+      bool nested = true;
+      for (int k = 0; k < 3; ++k)
+        nested = nested && boxes[i].first[k] >= boxes[o].first[k] - slack &&
+                 boxes[i].second[k] <= boxes[o].second[k] + slack;
+      if (nested && borders_one_ring(mesh, *holes[o], *holes[i], options)) {
+        inside_of[o].push_back(i);
+        ++enclosing[i];
+      }
+    }
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  for (std::size_t o = 0; o < holes.size(); ++o)
+    if (inside_of[o].size() == 1 && enclosing[inside_of[o].front()] == 1 && enclosing[o] == 0)
+      out.emplace_back(o, inside_of[o].front());
+  return out;
+}
+
+RingJoin join_ring_borders(Mesh& mesh, const Hole& outer, const Hole& inner,
+                           const SearchReach& reach) {
+  RingJoin out;
+  const std::size_t no = outer.loop.size(), ni = inner.loop.size();
+  struct Quad {
+    double cost;
+    std::size_t i, j;  // outer halfedge a -> b, inner halfedge t -> t'
+  };
+  std::vector<Quad> quads;
+  quads.reserve(no * ni);
+  for (std::size_t i = 0; i < no; ++i)
+    for (std::size_t j = 0; j < ni; ++j) {
+      const Vec3& a = mesh.point(outer.loop[i]);
+      const Vec3& b = mesh.point(outer.loop[(i + 1) % no]);
+      const Vec3& t = mesh.point(inner.loop[j]);
+      const Vec3& t2 = mesh.point(inner.loop[(j + 1) % ni]);
+      quads.push_back({(b - t).norm() + (t2 - a).norm(), i, j});
+    }
+  const std::size_t tried = std::min(kJoinCandidates, quads.size());
+  std::partial_sort(quads.begin(), quads.begin() + static_cast<std::ptrdiff_t>(tried), quads.end(),
+                    [](const Quad& x, const Quad& y) { return x.cost < y.cost; });
+  for (std::size_t k = 0; k < tried; ++k) {
+    const VertexHandle a = outer.loop[quads[k].i], b = outer.loop[(quads[k].i + 1) % no];
+    const VertexHandle t = inner.loop[quads[k].j], t2 = inner.loop[(quads[k].j + 1) % ni];
+    const Vec3 pa = mesh.point(a), pb = mesh.point(b), pt = mesh.point(t), pt2 = mesh.point(t2);
+    // Facing as a patch of the outer loop would (its boundary halfedges' way round), not
+    // folded, no needles.
+    const Vec3 n1 = unit_normal(pa, pb, pt), n2 = unit_normal(pt, pt2, pa);
+    if (!(OpenMesh::dot(n1, outer.newell_normal) > kJoinFoldCos) ||
+        !(OpenMesh::dot(n2, outer.newell_normal) > kJoinFoldCos) ||
+        !(OpenMesh::dot(n1, n2) > kJoinFoldCos) ||
+        !(min_angle_sine(pa, pb, pt) > kJoinMinAngleSine) ||
+        !(min_angle_sine(pt, pt2, pa) > kJoinMinAngleSine))
+      continue;
+    if (mesh.find_halfedge(a, t).is_valid() || mesh.find_halfedge(b, t).is_valid() ||
+        mesh.find_halfedge(a, t2).is_valid())
+      continue;
+    const FaceHandle f1 = mesh.add_face(a, b, t);
+    if (!f1.is_valid()) continue;
+    const FaceHandle f2 = mesh.add_face(t, t2, a);
+    if (!f2.is_valid()) {
+      mesh.delete_face(f1, false);
+      continue;
+    }
+    const std::vector<FaceHandle> faces{f1, f2};
+    Hole joined;
+    const HalfedgeHandle start = mesh.find_halfedge(a, t2);
+    bool linked = start.is_valid() && mesh.is_boundary(start);
+    if (linked) {
+      HalfedgeHandle h = start;
+      do {
+        joined.loop.push_back(mesh.from_vertex_handle(h));
+        joined.halfedges.push_back(h);
+        h = next_hole_halfedge(mesh, h);
+      } while (h.is_valid() && h != start && joined.loop.size() <= no + ni);
+      linked = h == start && joined.loop.size() == no + ni;
+    }
+    if (!linked || !find_intersections_with_rest(mesh, faces, 1, reach).empty()) {
+      mesh.delete_face(f2, false);
+      mesh.delete_face(f1, false);
+      continue;
+    }
+    joined.id = outer.id;
+    compute_hole_properties(mesh, joined, /*compute_projectability=*/true);
+    out.faces = faces;
+    out.hole = std::move(joined);
+    return out;
+  }
+  out.failure = "no two triangles join the ring's borders without folding or meeting the mesh";
+  return out;
+}
+
+}  // namespace touchmend::geometry

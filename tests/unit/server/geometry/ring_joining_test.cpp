@@ -1,0 +1,118 @@
+#include "server/geometry/ring_joining.h"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "server/geometry/hole_filling.h"
+#include "server/geometry/mesh_build.h"
+#include "server/geometry/mesh_intersections.h"
+#include "server/geometry/metrics.h"
+#include "tests/support/invariants.h"
+#include "tests/support/mesh_factory.h"
+
+namespace touchmend::geometry {
+namespace {
+
+//! A 16 x 16 grid with the ring of faces whose centroids lie 2 to 4 from its centre cut away:
+//! the island inside stays. Three loops: the grid's border, the ring's outer border and the
+//! island's border.
+MeshSoup grid_with_a_ring_cut() {
+  return testing::remove_faces(testing::grid(16, 16), [](const Vec3& c) {
+    const double r = std::hypot(c[0] - 8, c[1] - 8);
+    return r > 2 && r < 4;
+  });
+}
+
+double area_of(const Mesh& mesh, const std::vector<FaceHandle>& faces) {
+  double area = 0;
+  for (const TrianglePoints& t : face_triangles(mesh, faces))
+    area += 0.5 * OpenMesh::cross(t[1] - t[0], t[2] - t[0]).norm();
+  return area;
+}
+
+// The ring's two borders are paired, the outer one first; the grid's border, around both and
+// on their plane, is no border of the ring (its region lies outside it).
+TEST(RingBorders, TheBordersOfACutRingArePairedAndTheSheetsBorderIsNot) {
+  const Mesh mesh = build_mesh(grid_with_a_ring_cut()).mesh;
+  const std::vector<Hole> holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 3u);
+  std::vector<const Hole*> all;
+  for (const Hole& h : holes) all.push_back(&h);
+  const auto pairs = find_ring_borders(mesh, all);
+  ASSERT_EQ(pairs.size(), 1u);
+  const Hole& outer = *all[pairs[0].first];
+  const Hole& inner = *all[pairs[0].second];
+  EXPECT_GT(outer.area, inner.area);
+  EXPECT_LT(outer.area, 60.0);  // the ring's outer border (π 4² ≈ 50), not the grid's (256)
+  EXPECT_FALSE(borders_one_ring(mesh, inner, outer));
+}
+
+// Two holes side by side, or one loop inside another on a parallel plane far off it, are not
+// the borders of one ring.
+TEST(RingBorders, HolesSideBySideOrOffThePlaneAreNotARing) {
+  const Mesh side_by_side =
+      build_mesh(testing::remove_faces(testing::grid(16, 16), [](const Vec3& c) {
+        return std::hypot(c[0] - 4, c[1] - 8) < 2 || std::hypot(c[0] - 12, c[1] - 8) < 2;
+      })).mesh;
+  std::vector<Hole> holes = find_holes(side_by_side).holes;
+  std::vector<const Hole*> all;
+  for (const Hole& h : holes) all.push_back(&h);
+  EXPECT_TRUE(find_ring_borders(side_by_side, all).empty());
+
+  // The island lifted by 3 above the sheet: inside the outline, but 1.3 radii off its plane.
+  MeshSoup lifted = grid_with_a_ring_cut();
+  for (Vec3& p : lifted.points)
+    if (std::hypot(p[0] - 8, p[1] - 8) < 2.01) p[2] += 3;
+  const Mesh stepped = build_mesh(lifted).mesh;
+  holes = find_holes(stepped).holes;
+  all.clear();
+  for (const Hole& h : holes) all.push_back(&h);
+  EXPECT_TRUE(find_ring_borders(stepped, all).empty());
+}
+
+// Filling every hole of the cut sheet closes the ring between its borders: one patch in the
+// sheet's plane with the ring's area (not a disk over the island, nor a cap on it), the
+// island untouched, the fill invariants kept. The inner border's report says which patch
+// closed it.
+TEST(RingBorders, FillingTheSheetClosesTheRingBetweenItsBorders) {
+  Mesh mesh = build_mesh(grid_with_a_ring_cut()).mesh;
+  const std::vector<Hole> holes = find_holes(mesh).holes;
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  std::vector<std::uint32_t> ring_ids;
+  for (const Hole& h : holes)
+    if (h.area < 60) ring_ids.push_back(h.id);
+  ASSERT_EQ(ring_ids.size(), 2u);
+  const FillReport report =
+      fill_holes(mesh, FillSelection{.mode = FillSelection::Mode::Ids, .ids = ring_ids}, {});
+  ASSERT_EQ(report.holes.size(), 2u);
+  EXPECT_EQ(testing::check_fill_invariants(before, mesh, report.holes, holes), "");
+  std::vector<FaceHandle> patch;
+  std::size_t with_faces = 0;
+  for (const HoleFillReport& r : report.holes) {
+    EXPECT_TRUE(r.filled) << r.reason;
+    ASSERT_FALSE(r.warnings.empty());
+    EXPECT_NE(r.warnings.front().find("ring"), std::string::npos) << r.warnings.front();
+    with_faces += r.new_faces.empty() ? 0 : 1;
+    patch.insert(patch.end(), r.new_faces.begin(), r.new_faces.end());
+  }
+  EXPECT_EQ(with_faces, 1u);
+  // The removed faces' area: the cells whose centroids lie in the ring, as the rims outline.
+  double removed = 0;
+  const MeshSoup sheet = testing::grid(16, 16);
+  for (const Triangle& t : sheet.triangles) {
+    const Vec3 c = (sheet.points[t[0]] + sheet.points[t[1]] + sheet.points[t[2]]) / 3;
+    const double r = std::hypot(c[0] - 8, c[1] - 8);
+    if (r > 2 && r < 4) removed += 0.5;
+  }
+  EXPECT_NEAR(area_of(mesh, patch), removed, 1e-6);
+  for (const FaceHandle f : patch)
+    for (const VertexHandle v : mesh.fv_range(f)) EXPECT_NEAR(mesh.point(v)[2], 0.0, 1e-9);
+  EXPECT_EQ(find_holes(mesh).holes.size(), 1u);  // the grid's border
+  EXPECT_TRUE(find_face_intersections(mesh, patch).empty());
+}
+
+}  // namespace
+}  // namespace touchmend::geometry
