@@ -1903,6 +1903,24 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
     }
     if (progress && !progress(i + 1, selected.size())) break;
   }
+  // A loop left open that borders a ring with a loop not selected (an operator picked one of
+  // the two): the reason says so, as filling both would close the ring.
+  if (options.join_ring_borders)
+    for (std::size_t i = 0; i < report.holes.size() && i < selected.size(); ++i) {
+      HoleFillReport& r = report.holes[i];
+      if (r.filled || r.skipped || r.fragment_removed()) continue;
+      for (const Hole& other : found.holes) {
+        if (std::find(selected.begin(), selected.end(), &other) != selected.end()) continue;
+        if (borders_one_ring(mesh, *selected[i], other) ||
+            borders_one_ring(mesh, other, *selected[i])) {
+          r.reason += fmt::format(
+              " (hole {} borders the same ring-shaped hole: fill both to close the ring between "
+              "them)",
+              other.id);
+          break;
+        }
+      }
+    }
   return report;
 }
 

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "server/geometry/hole_filling.h"
@@ -112,6 +113,28 @@ TEST(RingBorders, FillingTheSheetClosesTheRingBetweenItsBorders) {
     for (const VertexHandle v : mesh.fv_range(f)) EXPECT_NEAR(mesh.point(v)[2], 0.0, 1e-9);
   EXPECT_EQ(find_holes(mesh).holes.size(), 1u);  // the grid's border
   EXPECT_TRUE(find_face_intersections(mesh, patch).empty());
+}
+
+// Only the outer border picked: it cannot be filled alone (its patch would lie on the island),
+// and the reason names the inner border to fill with it.
+TEST(RingBorders, OneBorderPickedAloneIsLeftOpenNamingTheOther) {
+  Mesh mesh = build_mesh(grid_with_a_ring_cut()).mesh;
+  const std::vector<Hole> holes = find_holes(mesh).holes;
+  const Hole* outer = nullptr;
+  const Hole* inner = nullptr;
+  for (const Hole& h : holes)
+    if (h.area < 60) (h.area > 30 ? outer : inner) = &h;
+  ASSERT_TRUE(outer && inner);
+  const std::size_t faces = mesh.n_faces();
+  const FillReport report =
+      fill_holes(mesh, FillSelection{.mode = FillSelection::Mode::Ids, .ids = {outer->id}}, {});
+  ASSERT_EQ(report.holes.size(), 1u);
+  EXPECT_FALSE(report.holes[0].filled);
+  EXPECT_NE(report.holes[0].reason.find(fmt::format("hole {} borders the same ring", inner->id)),
+            std::string::npos)
+      << report.holes[0].reason;
+  mesh.garbage_collection();
+  EXPECT_EQ(mesh.n_faces(), faces);
 }
 
 }  // namespace
