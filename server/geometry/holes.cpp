@@ -212,6 +212,19 @@ std::vector<FaceHandle> fragment_piece(const Mesh& mesh, const Hole& hole) {
   return faces;
 }
 
+bool trace_hole_loop(const Mesh& mesh, HalfedgeHandle start, std::size_t max_edges, Hole& hole) {
+  hole.loop.clear();
+  hole.halfedges.clear();
+  HalfedgeHandle h = start;
+  do {
+    if (hole.loop.size() == max_edges) return false;
+    hole.loop.push_back(mesh.from_vertex_handle(h));
+    hole.halfedges.push_back(h);
+    h = next_hole_halfedge(mesh, h);
+  } while (h.is_valid() && h != start);
+  return h == start;
+}
+
 HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) {
   HoleSearchResult result;
   std::vector<std::uint8_t> visited(mesh.n_halfedges(), 0);

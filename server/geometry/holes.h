@@ -70,6 +70,12 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options =
 //! two holes into a figure 8). Invalid if the fan is corrupt.
 HalfedgeHandle next_hole_halfedge(const Mesh& mesh, HalfedgeHandle incoming);
 
+//! The loop the boundary links from boundary halfedge \p start (next_hole_halfedge at each
+//! vertex) into \p hole's loop and halfedges (its other fields untouched): false when it does
+//! not come back to \p start within \p max_edges edges or a fan is corrupt. For a loop an edit
+//! has just made (a triangle across a pinch, two joining a ring's borders).
+bool trace_hole_loop(const Mesh& mesh, HalfedgeHandle start, std::size_t max_edges, Hole& hole);
+
 //! Index of the hole with \p id in \p holes, if any.
 std::optional<std::size_t> find_hole_by_id(const std::vector<Hole>& holes, std::uint32_t id);
 

@@ -66,14 +66,8 @@ HalfedgeHandle add_corner_face(Mesh& mesh, VertexHandle p, VertexHandle v, Verte
 //! is not filled).
 bool linked_as_one_loop(const Mesh& mesh, const std::vector<HalfedgeHandle>& halfedges,
                         Hole& disk) {
-  const HalfedgeHandle start = halfedges.front();
-  HalfedgeHandle h = start;
-  do {
-    disk.loop.push_back(mesh.from_vertex_handle(h));
-    disk.halfedges.push_back(h);
-    h = next_hole_halfedge(mesh, h);
-  } while (h.is_valid() && h != start && disk.loop.size() <= halfedges.size());
-  return h == start && disk.halfedges == halfedges;
+  return trace_hole_loop(mesh, halfedges.front(), halfedges.size(), disk) &&
+         disk.halfedges == halfedges;
 }
 
 //! The disk keeps the hole's id and gets its own properties.

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "server/geometry/intersection.h"
+#include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
 
@@ -17,35 +18,6 @@ constexpr double kJoinFoldCos = 0.5;
 constexpr double kJoinMinAngleSine = 0.02;  // about 1.1°
 //! A loop's rim faces "face its Newell normal's way" when the mean cosine passes this.
 constexpr double kRimFacingCos = 0.25;
-
-struct PlaneFrame {
-  Vec3 origin, normal, u, v;
-  std::array<double, 2> project(const Vec3& p) const {
-    const Vec3 d = p - origin;
-    return {OpenMesh::dot(d, u), OpenMesh::dot(d, v)};
-  }
-};
-
-PlaneFrame frame_of(const Hole& hole) {
-  PlaneFrame f{hole.centroid, hole.newell_normal, {}, {}};
-  const Vec3 axis = std::abs(f.normal[0]) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
-  f.u = OpenMesh::cross(f.normal, axis).normalize_cond();
-  f.v = OpenMesh::cross(f.normal, f.u);
-  return f;
-}
-
-//! Even-odd test of \p point against the closed polygon \p outline.
-bool inside(const std::vector<std::array<double, 2>>& outline, const std::array<double, 2>& point) {
-  bool in = false;
-  for (std::size_t i = 0, j = outline.size() - 1; i < outline.size(); j = i++) {
-    const auto& a = outline[i];
-    const auto& b = outline[j];
-    if ((a[1] > point[1]) != (b[1] > point[1]) &&
-        point[0] < (b[0] - a[0]) * (point[1] - a[1]) / (b[1] - a[1]) + a[0])
-      in = !in;
-  }
-  return in;
-}
 
 Vec3 unit_normal(const Vec3& a, const Vec3& b, const Vec3& c) {
   return OpenMesh::cross(b - a, c - a).normalize_cond();
@@ -85,14 +57,14 @@ bool borders_one_ring(const Mesh& mesh, const Hole& outer, const Hole& inner,
   const double radius = std::sqrt(outer.area / std::numbers::pi);
   const double off_plane = options.max_off_plane * radius;
   if (outer.planarity > off_plane) return false;
-  const PlaneFrame plane = frame_of(outer);
-  std::vector<std::array<double, 2>> outline;
+  const ReferenceFrame plane = ReferenceFrame::from_normal(outer.newell_normal, outer.centroid);
+  std::vector<Point2> outline;
   outline.reserve(outer.loop.size());
   for (const VertexHandle v : outer.loop) outline.push_back(plane.project(mesh.point(v)));
   for (const VertexHandle v : inner.loop) {
     const Vec3& p = mesh.point(v);
     if (std::abs(OpenMesh::dot(p - plane.origin, plane.normal)) > off_plane) return false;
-    if (!inside(outline, plane.project(p))) return false;
+    if (!point_in_polygon(outline, plane.project(p))) return false;
   }
   return true;
 }
@@ -111,10 +83,10 @@ std::vector<std::pair<std::size_t, std::size_t>> find_ring_borders(
   }
   std::vector<std::vector<std::size_t>> inside_of(holes.size());
   std::vector<std::size_t> enclosing(holes.size(), 0);
-  for (std::size_t o = 0; o < holes.size(); ++o)
+  for (std::size_t o = 0; o < holes.size(); ++o) {
+    const double slack = 0.1 * (boxes[o].second - boxes[o].first).norm();
     for (std::size_t i = 0; i < holes.size(); ++i) {
       if (i == o) continue;
-      const double slack = 0.1 * (boxes[o].second - boxes[o].first).norm();
       bool nested = true;
       for (int k = 0; k < 3; ++k)
         nested = nested && boxes[i].first[k] >= boxes[o].first[k] - slack &&
@@ -124,6 +96,7 @@ std::vector<std::pair<std::size_t, std::size_t>> find_ring_borders(
         ++enclosing[i];
       }
     }
+  }
   std::vector<std::pair<std::size_t, std::size_t>> out;
   for (std::size_t o = 0; o < holes.size(); ++o)
     if (inside_of[o].size() == 1 && enclosing[inside_of[o].front()] == 1 && enclosing[o] == 0)
@@ -178,16 +151,9 @@ RingJoin join_ring_borders(Mesh& mesh, const Hole& outer, const Hole& inner,
     const std::vector<FaceHandle> faces{f1, f2};
     Hole joined;
     const HalfedgeHandle start = mesh.find_halfedge(a, t2);
-    bool linked = start.is_valid() && mesh.is_boundary(start);
-    if (linked) {
-      HalfedgeHandle h = start;
-      do {
-        joined.loop.push_back(mesh.from_vertex_handle(h));
-        joined.halfedges.push_back(h);
-        h = next_hole_halfedge(mesh, h);
-      } while (h.is_valid() && h != start && joined.loop.size() <= no + ni);
-      linked = h == start && joined.loop.size() == no + ni;
-    }
+    const bool linked = start.is_valid() && mesh.is_boundary(start) &&
+                        trace_hole_loop(mesh, start, no + ni, joined) &&
+                        joined.loop.size() == no + ni;
     if (!linked || !find_intersections_with_rest(mesh, faces, 1, reach).empty()) {
       mesh.delete_face(f2, false);
       mesh.delete_face(f1, false);

@@ -34,6 +34,7 @@
 #include "server/geometry/bvh.h"
 #include "server/geometry/hole_filling.h"
 #include "server/geometry/holes.h"
+#include "server/geometry/intersection.h"
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_io.h"
 #include "server/geometry/metrics.h"
@@ -152,13 +153,9 @@ std::vector<geo::Vec3> crease_run(const geo::Mesh& mesh, geo::EdgeHandle start, 
 
 double distance_to_run(const geo::Vec3& p, const std::vector<geo::Vec3>& run) {
   double best = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i + 1 < run.size(); ++i) {
-    const geo::Vec3 d = run[i + 1] - run[i];
-    const double t =
-        std::clamp(OpenMesh::dot(p - run[i], d) / std::max(d.sqrnorm(), 1e-300), 0.0, 1.0);
-    best = std::min(best, (p - (run[i] + t * d)).norm());
-  }
-  return best;
+  for (std::size_t i = 0; i + 1 < run.size(); ++i)
+    best = std::min(best, geo::segment_segment_distance2(p, p, run[i], run[i + 1]));
+  return std::sqrt(best);
 }
 
 //! The crease edges among \p removed triangles: edges both of whose faces were removed, with a

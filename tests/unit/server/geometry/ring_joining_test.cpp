@@ -51,17 +51,31 @@ TEST(RingBorders, TheBordersOfACutRingArePairedAndTheSheetsBorderIsNot) {
   EXPECT_FALSE(borders_one_ring(mesh, inner, outer));
 }
 
-// Two holes side by side, or one loop inside another on a parallel plane far off it, are not
-// the borders of one ring.
-TEST(RingBorders, HolesSideBySideOrOffThePlaneAreNotARing) {
-  const Mesh side_by_side =
-      build_mesh(testing::remove_faces(testing::grid(16, 16), [](const Vec3& c) {
-        return std::hypot(c[0] - 4, c[1] - 8) < 2 || std::hypot(c[0] - 12, c[1] - 8) < 2;
-      })).mesh;
-  std::vector<Hole> holes = find_holes(side_by_side).holes;
+// A loop of the other way round beside a hole, not inside it (an island cut free next to a
+// round hole), or one loop inside another on a parallel plane far off it, are not the borders
+// of one ring.
+TEST(RingBorders, LoopsBesideOrOffThePlaneAreNotARing) {
+  const Mesh beside = build_mesh(testing::remove_faces(testing::grid(16, 16), [](const Vec3& c) {
+                        const double ring = std::hypot(c[0] - 11, c[1] - 8);
+                        return std::hypot(c[0] - 3.5, c[1] - 8) < 2 || (ring > 1.5 && ring < 3.5);
+                      })).mesh;
+  std::vector<Hole> holes = find_holes(beside).holes;
+  ASSERT_EQ(holes.size(), 4u);  // the sheet's border, the round hole, the ring's two borders
   std::vector<const Hole*> all;
   for (const Hole& h : holes) all.push_back(&h);
-  EXPECT_TRUE(find_ring_borders(side_by_side, all).empty());
+  const auto pairs = find_ring_borders(beside, all);
+  ASSERT_EQ(pairs.size(), 1u);  // the ring's; the island is outside the round hole's outline
+  const Hole& ring_outer = *all[pairs[0].first];
+  const Hole& island = *all[pairs[0].second];
+  EXPECT_NEAR(ring_outer.centroid[0], 11.0, 0.5);
+  EXPECT_NEAR(island.centroid[0], 11.0, 0.5);
+  // The round hole is larger than the island, on its plane and the other way round: only its
+  // outline rules the island out.
+  for (const Hole* h : all) {
+    if (h->centroid[0] < 6) {
+      EXPECT_FALSE(borders_one_ring(beside, *h, island));
+    }
+  }
 
   // The island lifted by 3 above the sheet: inside the outline, but 1.3 radii off its plane.
   MeshSoup lifted = grid_with_a_ring_cut();
