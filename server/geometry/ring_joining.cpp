@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "server/geometry/intersection.h"
@@ -18,6 +19,9 @@ constexpr double kJoinFoldCos = 0.5;
 constexpr double kJoinMinAngleSine = 0.02;  // about 1.1°
 //! A loop's rim faces "face its Newell normal's way" when the mean cosine passes this.
 constexpr double kRimFacingCos = 0.25;
+//! Two levels joined by a straight wall have borders of the same area (up to the cut's ragged
+//! edge); which one is outer, the rims' facing decides.
+constexpr double kSameAreaSlack = 1.05;
 
 Vec3 unit_normal(const Vec3& a, const Vec3& b, const Vec3& c) {
   return OpenMesh::cross(b - a, c - a).normalize_cond();
@@ -36,6 +40,41 @@ double rim_faces_along(const Mesh& mesh, const Hole& hole, const Vec3& direction
   return faces > 0 ? sum / static_cast<double>(faces) : 0;
 }
 
+double distance_to_outline(std::span<const Point2> outline, const Point2& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < outline.size(); ++i) {
+    const Point2& a = outline[i];
+    const Point2& b = outline[(i + 1) % outline.size()];
+    const Point2 ab = b - a;
+    const double length2 = ab.squaredNorm();
+    const double s = length2 > 0 ? std::clamp((p - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+    best = std::min(best, (p - (a + s * ab)).norm());
+  }
+  return best;
+}
+
+//! Where the inner loop lies against the outer loop's plane.
+enum class RingLevel { OnThePlane, TwoLevels, Neither };
+
+RingLevel ring_level(const Mesh& mesh, const Hole& outer, const Hole& inner,
+                     const RingBorderOptions& options) {
+  const double radius = std::sqrt(std::max(outer.area, 0.0) / std::numbers::pi);
+  const double off_plane = options.max_off_plane * radius;
+  double lowest = std::numeric_limits<double>::infinity(), highest = -lowest;
+  for (const VertexHandle v : inner.loop) {
+    const double height = OpenMesh::dot(mesh.point(v) - outer.centroid, outer.newell_normal);
+    lowest = std::min(lowest, height);
+    highest = std::max(highest, height);
+  }
+  if (inner.loop.empty()) return RingLevel::Neither;
+  if (std::max(std::abs(lowest), std::abs(highest)) <= off_plane) return RingLevel::OnThePlane;
+  // On a parallel plane within reach (the wall between the levels went with the ring).
+  if (highest - lowest <= off_plane &&
+      std::abs(0.5 * (lowest + highest)) <= options.max_level_offset * radius)
+    return RingLevel::TwoLevels;
+  return RingLevel::Neither;
+}
+
 }  // namespace
 
 bool borders_one_ring(const Mesh& mesh, const Hole& outer, const Hole& inner,
@@ -43,7 +82,7 @@ bool borders_one_ring(const Mesh& mesh, const Hole& outer, const Hole& inner,
   if (outer.loop.size() < 3 || inner.loop.size() < 3 || !outer.pinched_at.empty() ||
       !inner.pinched_at.empty() || !outer.unfillable_reason.empty() ||
       !inner.unfillable_reason.empty() || !(outer.area > 0) || !(inner.area > 0) ||
-      inner.area >= outer.area)
+      inner.area > kSameAreaSlack * outer.area)
     return false;
   // Opposite ways round: the two borders of one region.
   if (!(OpenMesh::dot(outer.newell_normal, inner.newell_normal) < -0.5)) return false;
@@ -58,13 +97,17 @@ bool borders_one_ring(const Mesh& mesh, const Hole& outer, const Hole& inner,
   const double off_plane = options.max_off_plane * radius;
   if (outer.planarity > off_plane) return false;
   const ReferenceFrame plane = ReferenceFrame::from_normal(outer.newell_normal, outer.centroid);
+  const RingLevel level = ring_level(mesh, outer, inner, options);
+  if (level == RingLevel::Neither) return false;
   std::vector<Point2> outline;
   outline.reserve(outer.loop.size());
   for (const VertexHandle v : outer.loop) outline.push_back(plane.project(mesh.point(v)));
   for (const VertexHandle v : inner.loop) {
-    const Vec3& p = mesh.point(v);
-    if (std::abs(OpenMesh::dot(p - plane.origin, plane.normal)) > off_plane) return false;
-    if (!point_in_polygon(outline, plane.project(p))) return false;
+    const Point2 p = plane.project(mesh.point(v));
+    // A straight wall's lower border projects onto the outer loop itself.
+    if (!point_in_polygon(outline, p) &&
+        !(level == RingLevel::TwoLevels && distance_to_outline(outline, p) <= off_plane))
+      return false;
   }
   return true;
 }
@@ -84,13 +127,19 @@ std::vector<std::pair<std::size_t, std::size_t>> find_ring_borders(
   std::vector<std::vector<std::size_t>> inside_of(holes.size());
   std::vector<std::size_t> enclosing(holes.size(), 0);
   for (std::size_t o = 0; o < holes.size(); ++o) {
-    const double slack = 0.1 * (boxes[o].second - boxes[o].first).norm();
+    // A tenth of the box's size on every side, and the farthest second level along the outer
+    // loop's normal.
+    Vec3 slack;
+    const double size = (boxes[o].second - boxes[o].first).norm();
+    const double level = options.max_level_offset * std::sqrt(holes[o]->area / std::numbers::pi);
+    for (int k = 0; k < 3; ++k)
+      slack[k] = 0.1 * size + std::abs(holes[o]->newell_normal[k]) * level;
     for (std::size_t i = 0; i < holes.size(); ++i) {
       if (i == o) continue;
       bool nested = true;
       for (int k = 0; k < 3; ++k)
-        nested = nested && boxes[i].first[k] >= boxes[o].first[k] - slack &&
-                 boxes[i].second[k] <= boxes[o].second[k] + slack;
+        nested = nested && boxes[i].first[k] >= boxes[o].first[k] - slack[k] &&
+                 boxes[i].second[k] <= boxes[o].second[k] + slack[k];
       if (nested && borders_one_ring(mesh, *holes[o], *holes[i], options)) {
         inside_of[o].push_back(i);
         ++enclosing[i];
@@ -122,6 +171,11 @@ RingJoin join_ring_borders(Mesh& mesh, const Hole& outer, const Hole& inner,
       const Vec3& t2 = mesh.point(inner.loop[(j + 1) % ni]);
       quads.push_back({(b - t).norm() + (t2 - a).norm(), i, j});
     }
+  // On one plane the joining triangles lie in the ring and face as a patch of the outer loop
+  // would; across two levels they are a piece of the wall between them, standing on the outer
+  // loop's plane (facing across it, but not back against it).
+  const bool two_levels = ring_level(mesh, outer, inner, {}) == RingLevel::TwoLevels;
+  const double min_facing_cos = two_levels ? -kJoinFoldCos : kJoinFoldCos;
   const std::size_t tried = std::min(kJoinCandidates, quads.size());
   std::partial_sort(quads.begin(), quads.begin() + static_cast<std::ptrdiff_t>(tried), quads.end(),
                     [](const Quad& x, const Quad& y) { return x.cost < y.cost; });
@@ -132,8 +186,8 @@ RingJoin join_ring_borders(Mesh& mesh, const Hole& outer, const Hole& inner,
     // Facing as a patch of the outer loop would (its boundary halfedges' way round), not
     // folded, no needles.
     const Vec3 n1 = unit_normal(pa, pb, pt), n2 = unit_normal(pt, pt2, pa);
-    if (!(OpenMesh::dot(n1, outer.newell_normal) > kJoinFoldCos) ||
-        !(OpenMesh::dot(n2, outer.newell_normal) > kJoinFoldCos) ||
+    if (!(OpenMesh::dot(n1, outer.newell_normal) > min_facing_cos) ||
+        !(OpenMesh::dot(n2, outer.newell_normal) > min_facing_cos) ||
         !(OpenMesh::dot(n1, n2) > kJoinFoldCos) ||
         !(min_angle_sine(pa, pb, pt) > kJoinMinAngleSine) ||
         !(min_angle_sine(pt, pt2, pa) > kJoinMinAngleSine))

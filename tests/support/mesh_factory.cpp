@@ -192,6 +192,33 @@ MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double 
   });
 }
 
+MeshSoup plate_with_a_pocket(int around, double radius, double depth) {
+  MeshSoup s;
+  constexpr int kPlateRings = 3;
+  // Rings 0..3 of the plate in z = 0, then the floor's ring and its centre in z = -depth.
+  for (int k = 0; k <= kPlateRings + 1; ++k)
+    for (int i = 0; i < around; ++i) {
+      const double a = 2 * std::numbers::pi * i / around;
+      const double r = k <= kPlateRings ? radius + k : radius;
+      s.points.emplace_back(r * std::cos(a), r * std::sin(a), k <= kPlateRings ? 0.0 : -depth);
+    }
+  const auto centre = static_cast<std::uint32_t>(s.points.size());
+  s.points.emplace_back(0, 0, -depth);
+  const auto id = [&](int i, int k) { return static_cast<std::uint32_t>(k * around + i % around); };
+  for (int k = 0; k < kPlateRings; ++k)
+    for (int i = 0; i < around; ++i) {
+      s.triangles.push_back({id(i, k), id(i + 1, k + 1), id(i + 1, k)});
+      s.triangles.push_back({id(i, k), id(i, k + 1), id(i + 1, k + 1)});
+    }
+  const int floor = kPlateRings + 1;
+  for (int i = 0; i < around; ++i) {
+    s.triangles.push_back({id(i, 0), id(i + 1, 0), id(i + 1, floor)});
+    s.triangles.push_back({id(i, 0), id(i + 1, floor), id(i, floor)});
+    s.triangles.push_back({id(i, floor), id(i + 1, floor), centre});
+  }
+  return s;
+}
+
 MeshSoup grid_with_a_slot_along_a_fold(double fold_deg) {
   const double fold = fold_deg * std::numbers::pi / 180;
   const std::vector<double> rows{-5, -4, -3, -2, -1, -0.1, 0, 0.1, 1, 2, 3, 4, 5};

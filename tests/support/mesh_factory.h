@@ -71,6 +71,11 @@ MeshSoup comb_cut_cylinder(CombTeeth teeth);
 //! 11.4° flat), whose ear spans the slot across the crease.
 MeshSoup grid_with_a_slot_along_a_fold(double fold_deg);
 
+//! A round pocket of \p radius and \p depth (axis z, \p around sides) in a plate at z = 0: the
+//! plate's annulus (rings 1 apart out to radius + 3) and the pocket's floor (a fan in z = -depth)
+//! facing +z, the wall (one row of quads) facing the axis. The plate's outer border is open.
+MeshSoup plate_with_a_pocket(int around, double radius, double depth);
+
 //! \p soup with a separate right triangle of unit legs added at \p corner (in z = corner's z):
 //! a fragment, whose outline is a three-edge loop.
 MeshSoup with_lone_triangle(MeshSoup soup, const Vec3& corner);

@@ -1,6 +1,8 @@
 #include "server/geometry/ring_joining.h"
 
+#include <array>
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -77,10 +79,11 @@ TEST(RingBorders, LoopsBesideOrOffThePlaneAreNotARing) {
     }
   }
 
-  // The island lifted by 3 above the sheet: inside the outline, but 1.3 radii off its plane.
+  // The island lifted by 12 above the sheet: inside the outline, but over 3 radii off its
+  // plane (a second level is taken up to 2 radii off).
   MeshSoup lifted = grid_with_a_ring_cut();
   for (Vec3& p : lifted.points)
-    if (std::hypot(p[0] - 8, p[1] - 8) < 2.01) p[2] += 3;
+    if (std::hypot(p[0] - 8, p[1] - 8) < 2.01) p[2] += 12;
   const Mesh stepped = build_mesh(lifted).mesh;
   holes = find_holes(stepped).holes;
   all.clear();
@@ -126,6 +129,59 @@ TEST(RingBorders, FillingTheSheetClosesTheRingBetweenItsBorders) {
   for (const FaceHandle f : patch)
     for (const VertexHandle v : mesh.fv_range(f)) EXPECT_NEAR(mesh.point(v)[2], 0.0, 1e-9);
   EXPECT_EQ(find_holes(mesh).holes.size(), 1u);  // the grid's border
+  EXPECT_TRUE(find_face_intersections(mesh, patch).empty());
+}
+
+// A pocket whose whole wall was cut (a slot along its rim's crease takes it on a CAD part): the
+// plate's border around its mouth and the floor's border below it run opposite ways on two
+// parallel planes. They are one ring on two levels, and the fill between them is the wall: every
+// new face on the pocket's prism, as much area as the wall had, neither level capped.
+TEST(RingBorders, APocketsCutWallIsFilledBetweenItsTwoLevels) {
+  constexpr int kAround = 24;
+  constexpr double kRadius = 2.0, kDepth = 1.5;
+  std::vector<std::array<Vec3, 3>> wall;
+  Mesh mesh =
+      build_mesh(testing::remove_faces(
+                     testing::plate_with_a_pocket(kAround, kRadius, kDepth),
+                     [](const Vec3& c) { return c[2] < -1e-9 && c[2] > -kDepth + 1e-9; }, &wall))
+          .mesh;
+  ASSERT_EQ(wall.size(), 2u * kAround);
+  const std::vector<Hole> holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 3u);  // the plate's outer border, the pocket's mouth, its floor's
+  std::vector<std::uint32_t> pocket_ids;
+  std::vector<const Hole*> all;
+  for (const Hole& h : holes) {
+    all.push_back(&h);
+    if (h.area < 20) pocket_ids.push_back(h.id);
+  }
+  ASSERT_EQ(pocket_ids.size(), 2u);
+  EXPECT_EQ(find_ring_borders(mesh, all).size(), 1u);
+
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  const FillReport report =
+      fill_holes(mesh, FillSelection{.mode = FillSelection::Mode::Ids, .ids = pocket_ids}, {});
+  ASSERT_EQ(report.holes.size(), 2u);
+  EXPECT_EQ(testing::check_fill_invariants(before, mesh, report.holes, holes), "");
+  std::vector<FaceHandle> patch;
+  for (const HoleFillReport& r : report.holes) {
+    EXPECT_TRUE(r.filled) << r.reason;
+    patch.insert(patch.end(), r.new_faces.begin(), r.new_faces.end());
+  }
+  ASSERT_FALSE(patch.empty());
+  // On the prism: between the sides' chords and the circle, between the two levels.
+  const double chord = kRadius * std::cos(std::numbers::pi / kAround);
+  for (const FaceHandle f : patch)
+    for (const VertexHandle v : mesh.fv_range(f)) {
+      const Vec3& p = mesh.point(v);
+      EXPECT_GE(std::hypot(p[0], p[1]), chord - 1e-9) << p;
+      EXPECT_LE(std::hypot(p[0], p[1]), kRadius + 1e-9) << p;
+      EXPECT_LE(p[2], 1e-9);
+      EXPECT_GE(p[2], -kDepth - 1e-9);
+    }
+  double wall_area = 0;
+  for (const auto& t : wall) wall_area += 0.5 * OpenMesh::cross(t[1] - t[0], t[2] - t[0]).norm();
+  EXPECT_NEAR(area_of(mesh, patch), wall_area, 1e-3 * wall_area);
+  EXPECT_EQ(find_holes(mesh).holes.size(), 1u);  // the plate's outer border
   EXPECT_TRUE(find_face_intersections(mesh, patch).empty());
 }
 
