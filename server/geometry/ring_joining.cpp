@@ -22,6 +22,10 @@ constexpr double kRimFacingCos = 0.25;
 //! Two levels joined by a straight wall have borders of the same area (up to the cut's ragged
 //! edge); which one is outer, the rims' facing decides.
 constexpr double kSameAreaSlack = 1.05;
+//! At most this share of the outer loop's vertices may dip towards the inner level.
+constexpr double kMaxDippingShare = 0.25;
+//! ... and its Newell normal, tilted by the dips, stays within 25° of the inner plane's.
+constexpr double kDippedNormalCos = 0.9;
 
 Vec3 unit_normal(const Vec3& a, const Vec3& b, const Vec3& c) {
   return OpenMesh::cross(b - a, c - a).normalize_cond();
@@ -56,23 +60,76 @@ double distance_to_outline(std::span<const Point2> outline, const Point2& p) {
 //! Where the inner loop lies against the outer loop's plane.
 enum class RingLevel { OnThePlane, TwoLevels, Neither };
 
-RingLevel ring_level(const Mesh& mesh, const Hole& outer, const Hole& inner,
-                     const RingBorderOptions& options) {
+struct RingLayout {
+  RingLevel level = RingLevel::Neither;
+  Vec3 origin = Vec3(0, 0, 0);  //!< a point of the outer loop's plane
+  Vec3 normal = Vec3(0, 0, 1);  //!< the outer loop's plane's normal, the way its patch faces
+};
+
+//! The outer loop's plane is its Newell normal through its centroid when the loop is
+//! near-planar. On two levels it may also dip off that plane towards the inner level at a few
+//! vertices (a wall cut only partly: the mouth's border runs down the wall's remains and back);
+//! the plane is then parallel to the (planar) inner loop, through the outer loop's vertices'
+//! median height.
+RingLayout ring_layout(const Mesh& mesh, const Hole& outer, const Hole& inner,
+                       const RingBorderOptions& options) {
+  RingLayout out;
+  if (inner.loop.empty() || outer.loop.empty()) return out;
   const double radius = std::sqrt(std::max(outer.area, 0.0) / std::numbers::pi);
   const double off_plane = options.max_off_plane * radius;
+  const double max_offset = options.max_level_offset * radius;
+  out.normal = outer.newell_normal;
+  if (outer.planarity > off_plane) {
+    // Dipping: the inner loop's plane (the Newell normal of a loop that dips is tilted).
+    if (inner.planarity > off_plane ||
+        !(OpenMesh::dot(outer.newell_normal, inner.newell_normal) < -kDippedNormalCos))
+      return out;
+    out.normal = -inner.newell_normal;
+  }
+  const auto height = [&](VertexHandle v) {
+    return OpenMesh::dot(mesh.point(v) - outer.centroid, out.normal);
+  };
   double lowest = std::numeric_limits<double>::infinity(), highest = -lowest;
   for (const VertexHandle v : inner.loop) {
-    const double height = OpenMesh::dot(mesh.point(v) - outer.centroid, outer.newell_normal);
-    lowest = std::min(lowest, height);
-    highest = std::max(highest, height);
+    lowest = std::min(lowest, height(v));
+    highest = std::max(highest, height(v));
   }
-  if (inner.loop.empty()) return RingLevel::Neither;
-  if (std::max(std::abs(lowest), std::abs(highest)) <= off_plane) return RingLevel::OnThePlane;
   // On a parallel plane within reach (the wall between the levels went with the ring).
-  if (highest - lowest <= off_plane &&
-      std::abs(0.5 * (lowest + highest)) <= options.max_level_offset * radius)
-    return RingLevel::TwoLevels;
-  return RingLevel::Neither;
+  const auto parallel = [&](double level) {
+    const double offset = 0.5 * (lowest + highest) - level;
+    return highest - lowest <= off_plane && std::abs(offset) > off_plane &&
+           std::abs(offset) <= max_offset;
+  };
+  if (outer.planarity <= off_plane) {
+    out.origin = outer.centroid;
+    if (std::max(std::abs(lowest), std::abs(highest)) <= off_plane)
+      out.level = RingLevel::OnThePlane;
+    else if (parallel(0.0))
+      out.level = RingLevel::TwoLevels;
+    return out;
+  }
+  std::vector<double> heights;
+  heights.reserve(outer.loop.size());
+  for (const VertexHandle v : outer.loop) heights.push_back(height(v));
+  std::vector<double> sorted = heights;
+  const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
+  std::nth_element(sorted.begin(), middle, sorted.end());
+  const double level = *middle;
+  if (!parallel(level)) return out;
+  const double offset = 0.5 * (lowest + highest) - level;
+  std::size_t dipping = 0;
+  for (const double h : heights) {
+    const double off = h - level;
+    if (std::abs(off) <= off_plane) continue;
+    // Down the wall towards the inner level, not past it.
+    if (off * offset < 0 || std::abs(off) > std::abs(offset) + off_plane) return out;
+    ++dipping;
+  }
+  if (static_cast<double>(dipping) > kMaxDippingShare * static_cast<double>(heights.size()))
+    return out;
+  out.origin = outer.centroid + level * out.normal;
+  out.level = RingLevel::TwoLevels;
+  return out;
 }
 
 }  // namespace
@@ -95,10 +152,9 @@ bool borders_one_ring(const Mesh& mesh, const Hole& outer, const Hole& inner,
     return false;
   const double radius = std::sqrt(outer.area / std::numbers::pi);
   const double off_plane = options.max_off_plane * radius;
-  if (outer.planarity > off_plane) return false;
-  const ReferenceFrame plane = ReferenceFrame::from_normal(outer.newell_normal, outer.centroid);
-  const RingLevel level = ring_level(mesh, outer, inner, options);
-  if (level == RingLevel::Neither) return false;
+  const RingLayout layout = ring_layout(mesh, outer, inner, options);
+  if (layout.level == RingLevel::Neither) return false;
+  const ReferenceFrame plane = ReferenceFrame::from_normal(layout.normal, layout.origin);
   std::vector<Point2> outline;
   outline.reserve(outer.loop.size());
   for (const VertexHandle v : outer.loop) outline.push_back(plane.project(mesh.point(v)));
@@ -106,7 +162,7 @@ bool borders_one_ring(const Mesh& mesh, const Hole& outer, const Hole& inner,
     const Point2 p = plane.project(mesh.point(v));
     // A straight wall's lower border projects onto the outer loop itself.
     if (!point_in_polygon(outline, p) &&
-        !(level == RingLevel::TwoLevels && distance_to_outline(outline, p) <= off_plane))
+        !(layout.level == RingLevel::TwoLevels && distance_to_outline(outline, p) <= off_plane))
       return false;
   }
   return true;
@@ -174,7 +230,7 @@ RingJoin join_ring_borders(Mesh& mesh, const Hole& outer, const Hole& inner,
   // On one plane the joining triangles lie in the ring and face as a patch of the outer loop
   // would; across two levels they are a piece of the wall between them, standing on the outer
   // loop's plane (facing across it, but not back against it).
-  const bool two_levels = ring_level(mesh, outer, inner, {}) == RingLevel::TwoLevels;
+  const bool two_levels = ring_layout(mesh, outer, inner, {}).level == RingLevel::TwoLevels;
   const double min_facing_cos = two_levels ? -kJoinFoldCos : kJoinFoldCos;
   const std::size_t tried = std::min(kJoinCandidates, quads.size());
   std::partial_sort(quads.begin(), quads.begin() + static_cast<std::ptrdiff_t>(tried), quads.end(),

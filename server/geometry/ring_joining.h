@@ -18,7 +18,8 @@
 //! wall below the rim with it, and the loops left are the mouth's border and the floor's, on two
 //! parallel planes. Filled alone, the mouth is capped at the top and the floor's border (its
 //! missing surface lies outside it) cannot be filled at all; joined, the loop left is the wall,
-//! which the 3D triangulation spans.
+//! which the 3D triangulation spans. Where a few of the wall's triangles stand (teeth), the
+//! mouth's border dips down them and back.
 
 #include <span>
 #include <string>
@@ -43,7 +44,8 @@ struct RingBorderOptions {
 //! Whether \p inner is the inner border of a ring whose outer border is \p outer: the outer loop
 //! is near-planar, every vertex of the inner one lies near its plane (or near one parallel plane
 //! within RingBorderOptions::max_level_offset) and inside its outline (projected on that plane;
-//! on a second level also on the outline, where a straight wall puts it), and the two run
+//! on a second level also on the outline, where a straight wall puts it; the outer loop may then
+//! dip towards the inner level at up to a quarter of its vertices), and the two run
 //! opposite ways (their Newell normals point apart, as the two borders of one region do). Neither
 //! may be pinched or unfillable.
 bool borders_one_ring(const Mesh& mesh, const Hole& outer, const Hole& inner,

@@ -192,15 +192,18 @@ MeshSoup cut_leaving_an_island(const MeshSoup& soup, const Vec3& centre, double 
   });
 }
 
-MeshSoup plate_with_a_pocket(int around, double radius, double depth) {
+MeshSoup plate_with_a_pocket(int around, double radius, double depth, int wall_rows) {
   MeshSoup s;
   constexpr int kPlateRings = 3;
-  // Rings 0..3 of the plate in z = 0, then the floor's ring and its centre in z = -depth.
-  for (int k = 0; k <= kPlateRings + 1; ++k)
+  // Rings 0..3 of the plate in z = 0, then the wall's rings down to the floor's in z = -depth,
+  // and the floor's centre.
+  const int floor = kPlateRings + wall_rows;
+  for (int k = 0; k <= floor; ++k)
     for (int i = 0; i < around; ++i) {
       const double a = 2 * std::numbers::pi * i / around;
       const double r = k <= kPlateRings ? radius + k : radius;
-      s.points.emplace_back(r * std::cos(a), r * std::sin(a), k <= kPlateRings ? 0.0 : -depth);
+      const double z = k <= kPlateRings ? 0.0 : -depth * (k - kPlateRings) / wall_rows;
+      s.points.emplace_back(r * std::cos(a), r * std::sin(a), z);
     }
   const auto centre = static_cast<std::uint32_t>(s.points.size());
   s.points.emplace_back(0, 0, -depth);
@@ -210,12 +213,15 @@ MeshSoup plate_with_a_pocket(int around, double radius, double depth) {
       s.triangles.push_back({id(i, k), id(i + 1, k + 1), id(i + 1, k)});
       s.triangles.push_back({id(i, k), id(i, k + 1), id(i + 1, k + 1)});
     }
-  const int floor = kPlateRings + 1;
-  for (int i = 0; i < around; ++i) {
-    s.triangles.push_back({id(i, 0), id(i + 1, 0), id(i + 1, floor)});
-    s.triangles.push_back({id(i, 0), id(i + 1, floor), id(i, floor)});
-    s.triangles.push_back({id(i, floor), id(i + 1, floor), centre});
+  // The wall's rows: ring 0 (the mouth), then rings kPlateRings + 1 ... floor.
+  for (int row = 0; row < wall_rows; ++row) {
+    const int upper = row == 0 ? 0 : kPlateRings + row, lower = kPlateRings + row + 1;
+    for (int i = 0; i < around; ++i) {
+      s.triangles.push_back({id(i, upper), id(i + 1, upper), id(i + 1, lower)});
+      s.triangles.push_back({id(i, upper), id(i + 1, lower), id(i, lower)});
+    }
   }
+  for (int i = 0; i < around; ++i) s.triangles.push_back({id(i, floor), id(i + 1, floor), centre});
   return s;
 }
 

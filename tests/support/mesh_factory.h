@@ -73,8 +73,9 @@ MeshSoup grid_with_a_slot_along_a_fold(double fold_deg);
 
 //! A round pocket of \p radius and \p depth (axis z, \p around sides) in a plate at z = 0: the
 //! plate's annulus (rings 1 apart out to radius + 3) and the pocket's floor (a fan in z = -depth)
-//! facing +z, the wall (one row of quads) facing the axis. The plate's outer border is open.
-MeshSoup plate_with_a_pocket(int around, double radius, double depth);
+//! facing +z, the wall (\p wall_rows rows of quads, rings evenly spaced down it; vertex i of the
+//! mouth at angle 2πi / around) facing the axis. The plate's outer border is open.
+MeshSoup plate_with_a_pocket(int around, double radius, double depth, int wall_rows = 1);
 
 //! \p soup with a separate right triangle of unit legs added at \p corner (in z = corner's z):
 //! a fragment, whose outline is a three-edge loop.

@@ -132,20 +132,30 @@ TEST(RingBorders, FillingTheSheetClosesTheRingBetweenItsBorders) {
   EXPECT_TRUE(find_face_intersections(mesh, patch).empty());
 }
 
-// A pocket whose whole wall was cut (a slot along its rim's crease takes it on a CAD part): the
+// A pocket whose wall was cut (a slot along its rim's crease takes it on a CAD part): the
 // plate's border around its mouth and the floor's border below it run opposite ways on two
 // parallel planes. They are one ring on two levels, and the fill between them is the wall: every
-// new face on the pocket's prism, as much area as the wall had, neither level capped.
-TEST(RingBorders, APocketsCutWallIsFilledBetweenItsTwoLevels) {
+// new face on the pocket's prism, as much area as was cut, neither level capped. With one
+// triangle of the wall's upper row left standing (two corners on the mouth, one half-way down)
+// the mouth's border dips down the wall and back: still the same ring.
+void expect_the_wall_filled(bool keep_a_tooth) {
   constexpr int kAround = 24;
   constexpr double kRadius = 2.0, kDepth = 1.5;
-  std::vector<std::array<Vec3, 3>> wall;
+  SCOPED_TRACE(keep_a_tooth ? "one wall triangle kept" : "the whole wall cut");
+  const double step = 2 * std::numbers::pi / kAround;
+  const Vec3 tooth =
+      (Vec3(kRadius, 0, 0) + 2 * Vec3(kRadius * std::cos(step), kRadius * std::sin(step), 0) +
+       Vec3(0, 0, -kDepth / 2)) /
+      3;
+  const auto in_the_wall = [&](const Vec3& c) {
+    return c[2] < -1e-9 && c[2] > -kDepth + 1e-9 && !(keep_a_tooth && (c - tooth).norm() < 1e-9);
+  };
+  std::vector<std::array<Vec3, 3>> cut;
   Mesh mesh =
-      build_mesh(testing::remove_faces(
-                     testing::plate_with_a_pocket(kAround, kRadius, kDepth),
-                     [](const Vec3& c) { return c[2] < -1e-9 && c[2] > -kDepth + 1e-9; }, &wall))
+      build_mesh(testing::remove_faces(testing::plate_with_a_pocket(kAround, kRadius, kDepth, 2),
+                                       in_the_wall, &cut))
           .mesh;
-  ASSERT_EQ(wall.size(), 2u * kAround);
+  ASSERT_EQ(cut.size(), 4u * kAround - (keep_a_tooth ? 1 : 0));
   const std::vector<Hole> holes = find_holes(mesh).holes;
   ASSERT_EQ(holes.size(), 3u);  // the plate's outer border, the pocket's mouth, its floor's
   std::vector<std::uint32_t> pocket_ids;
@@ -178,11 +188,19 @@ TEST(RingBorders, APocketsCutWallIsFilledBetweenItsTwoLevels) {
       EXPECT_LE(p[2], 1e-9);
       EXPECT_GE(p[2], -kDepth - 1e-9);
     }
-  double wall_area = 0;
-  for (const auto& t : wall) wall_area += 0.5 * OpenMesh::cross(t[1] - t[0], t[2] - t[0]).norm();
-  EXPECT_NEAR(area_of(mesh, patch), wall_area, 1e-3 * wall_area);
+  double cut_area = 0;
+  for (const auto& t : cut) cut_area += 0.5 * OpenMesh::cross(t[1] - t[0], t[2] - t[0]).norm();
+  EXPECT_NEAR(area_of(mesh, patch), cut_area, 1e-3 * cut_area);
   EXPECT_EQ(find_holes(mesh).holes.size(), 1u);  // the plate's outer border
   EXPECT_TRUE(find_face_intersections(mesh, patch).empty());
+}
+
+TEST(RingBorders, APocketsCutWallIsFilledBetweenItsTwoLevels) {
+  expect_the_wall_filled(false);
+}
+
+TEST(RingBorders, APocketsWallCutButForOneTriangleIsFilledBetweenItsTwoLevels) {
+  expect_the_wall_filled(true);
 }
 
 // Only the outer border picked: it cannot be filled alone (its patch would lie on the island),
