@@ -1730,8 +1730,23 @@ std::pair<HoleFillReport, HoleFillReport> fill_ring(Mesh& mesh, const Hole& oute
   std::pair<HoleFillReport, HoleFillReport> out;
   out.first.hole_id = outer.id;
   out.first.boundary_vertices = outer.loop.size();
-  const RingJoin join = join_ring_borders(mesh, outer, inner, reach);
+  // An inner border that is a comb (a wall of strip triangles cut every other one: its ring's
+  // level is that of the teeth, borders_one_ring) has its notches closed before the join, whose
+  // triangles would otherwise reach into a gap between two teeth and meet them.
+  PinchClosure notches;
+  if (options.close_notches && !options.explicit_creases) {
+    notches = close_notches(mesh, inner, reach);
+    if (!notches.failure.empty()) {
+      remove_patch(mesh, notches.faces, {});
+      notches = {};
+    } else if (!notches.faces.empty()) {
+      reach.add(mesh, notches.faces);
+    }
+  }
+  const RingJoin join =
+      join_ring_borders(mesh, outer, notches.faces.empty() ? inner : notches.hole, reach);
   if (!join.failure.empty()) {
+    remove_patch(mesh, notches.faces, {});
     out.first.reason = join.failure;
     return out;
   }
@@ -1739,13 +1754,16 @@ std::pair<HoleFillReport, HoleFillReport> fill_ring(Mesh& mesh, const Hole& oute
   HoleFillReport filled = fill_hole_cached(mesh, join.hole, options, reach);
   if (!filled.filled) {
     remove_patch(mesh, join.faces, {});
+    remove_patch(mesh, notches.faces, {});
     out.first.reason = filled.reason;
     return out;
   }
   filled.hole_id = outer.id;
   filled.boundary_vertices = outer.loop.size();
   filled.new_faces.insert(filled.new_faces.begin(), join.faces.begin(), join.faces.end());
-  filled.faces_added += join.faces.size();
+  filled.new_faces.insert(filled.new_faces.begin(), notches.faces.begin(), notches.faces.end());
+  filled.faces_added += join.faces.size() + notches.faces.size();
+  filled.angles_closed += notches.faces.size();
   filled.min_angle_deg = min_angle_deg(mesh, filled.new_faces);
   filled.warnings.insert(
       filled.warnings.begin(),

@@ -143,6 +143,18 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
   return out;
 }
 
+bool is_narrow_notch(const Mesh& mesh, const Hole& hole, std::size_t i) {
+  const std::size_t n = hole.loop.size();
+  if (n < 4 || hole.halfedges.size() != n) return false;
+  const std::size_t previous = (i + n - 1) % n;
+  const VertexHandle p = hole.loop[previous], v = hole.loop[i], a = hole.loop[(i + 1) % n];
+  const Vec3 to_p = (mesh.point(p) - mesh.point(v)).normalize_cond();
+  const Vec3 to_a = (mesh.point(a) - mesh.point(v)).normalize_cond();
+  return OpenMesh::dot(to_p, to_a) > std::cos(kNotchMaxCornerDeg * std::numbers::pi / 180) &&
+         !folds_against_rim(mesh, {p, v, a}, {hole.halfedges[previous], hole.halfedges[i]},
+                            kNotchMaxFoldCos);
+}
+
 PinchClosure close_notches(Mesh& mesh, const Hole& hole, const SearchReach& reach) {
   PinchClosure out;
   std::vector<VertexHandle> loop = hole.loop;

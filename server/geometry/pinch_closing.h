@@ -54,6 +54,11 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
 //! closed: \p hole itself, no faces. The faces carry no corners (nothing to flip afterwards).
 PinchClosure close_notches(Mesh& mesh, const Hole& hole, const SearchReach& reach);
 
+//! Whether the rim's corner at loop position \p i of \p hole looks like a notch close_notches
+//! closes: narrower than 15°, its ear continuing both rim faces within 30° (the geometry alone:
+//! whether the ear meets the mesh is not tried).
+bool is_narrow_notch(const Mesh& mesh, const Hole& hole, std::size_t i);
+
 //! After the disk is filled, the edge p-a of each pinch-closing triangle (p, v, a), now shared
 //! with a patch triangle (p, a, x), is flipped to v-x when that makes the pair's smaller angle
 //! larger, neither new triangle turns more than 60° from the pair it replaces, and neither meets

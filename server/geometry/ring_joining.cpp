@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "server/geometry/intersection.h"
+#include "server/geometry/pinch_closing.h"
 #include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
@@ -89,11 +90,15 @@ RingLayout ring_layout(const Mesh& mesh, const Hole& outer, const Hole& inner,
   const auto height = [&](VertexHandle v) {
     return OpenMesh::dot(mesh.point(v) - outer.centroid, out.normal);
   };
+  // A comb's gaps (narrow notches, which the fill closes with their ears first) do not count:
+  // the inner loop's level is that of its teeth.
   double lowest = std::numeric_limits<double>::infinity(), highest = -lowest;
-  for (const VertexHandle v : inner.loop) {
-    lowest = std::min(lowest, height(v));
-    highest = std::max(highest, height(v));
+  for (std::size_t i = 0; i < inner.loop.size(); ++i) {
+    if (is_narrow_notch(mesh, inner, i)) continue;
+    lowest = std::min(lowest, height(inner.loop[i]));
+    highest = std::max(highest, height(inner.loop[i]));
   }
+  if (!(lowest <= highest)) return out;
   // On a parallel plane within reach (the wall between the levels went with the ring).
   const auto parallel = [&](double level) {
     const double offset = 0.5 * (lowest + highest) - level;

@@ -225,6 +225,34 @@ MeshSoup plate_with_a_pocket(int around, double radius, double depth, int wall_r
   return s;
 }
 
+MeshSoup plate_with_a_counterbore(int around, double radius, double depth, double bore_radius,
+                                  double bore_depth) {
+  MeshSoup s;
+  // Rings from the plate's rim inwards and down: (radius, z) of each.
+  const std::vector<std::pair<double, double>> rings = {
+      {radius + 3, 0.0}, {radius + 2, 0.0},     {radius + 1, 0.0},         {radius, 0.0},
+      {radius, -depth},  {bore_radius, -depth}, {bore_radius, -bore_depth}};
+  for (const auto& [r, z] : rings)
+    for (int i = 0; i < around; ++i) {
+      const double a = 2 * std::numbers::pi * i / around;
+      s.points.emplace_back(r * std::cos(a), r * std::sin(a), z);
+    }
+  const auto centre = static_cast<std::uint32_t>(s.points.size());
+  s.points.emplace_back(0, 0, -bore_depth);
+  const auto id = [&](int i, std::size_t k) {
+    return static_cast<std::uint32_t>(k * static_cast<std::size_t>(around) + i % around);
+  };
+  // Each band between ring k (outer or upper) and k + 1, facing +z or the axis.
+  for (std::size_t k = 0; k + 1 < rings.size(); ++k)
+    for (int i = 0; i < around; ++i) {
+      s.triangles.push_back({id(i, k + 1), id(i, k), id(i + 1, k)});
+      s.triangles.push_back({id(i, k + 1), id(i + 1, k), id(i + 1, k + 1)});
+    }
+  for (int i = 0; i < around; ++i)
+    s.triangles.push_back({id(i, rings.size() - 1), id(i + 1, rings.size() - 1), centre});
+  return s;
+}
+
 MeshSoup grid_with_a_slot_along_a_fold(double fold_deg) {
   const double fold = fold_deg * std::numbers::pi / 180;
   const std::vector<double> rows{-5, -4, -3, -2, -1, -0.1, 0, 0.1, 1, 2, 3, 4, 5};

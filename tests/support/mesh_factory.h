@@ -77,6 +77,14 @@ MeshSoup grid_with_a_slot_along_a_fold(double fold_deg);
 //! mouth at angle 2πi / around) facing the axis. The plate's outer border is open.
 MeshSoup plate_with_a_pocket(int around, double radius, double depth, int wall_rows = 1);
 
+//! A counterbore in a plate at z = 0 (axis z, \p around sides): the plate's annulus (rings 1 apart
+//! out to radius + 3), the counterbore's wall (radius \p radius, down to -\p depth), its floor
+//! (an annulus in z = -depth in to \p bore_radius), the bore's wall (one row of strips down to
+//! -\p bore_depth: vertex i of its top ring at angle 2πi / around) and the bore's floor (a fan).
+//! Floors and plate face +z, walls the axis; the plate's outer border is open.
+MeshSoup plate_with_a_counterbore(int around, double radius, double depth, double bore_radius,
+                                  double bore_depth);
+
 //! \p soup with a separate right triangle of unit legs added at \p corner (in z = corner's z):
 //! a fragment, whose outline is a three-edge loop.
 MeshSoup with_lone_triangle(MeshSoup soup, const Vec3& corner);

@@ -1,5 +1,6 @@
 #include "server/geometry/ring_joining.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <numbers>
@@ -201,6 +202,82 @@ TEST(RingBorders, APocketsCutWallIsFilledBetweenItsTwoLevels) {
 
 TEST(RingBorders, APocketsWallCutButForOneTriangleIsFilledBetweenItsTwoLevels) {
   expect_the_wall_filled(true);
+}
+
+// A counterbore whose wall and floor a slot took, and with them every other strip of the bore's
+// wall below (couplingdown's walls are strips of long triangles): the floor's inner border is a
+// comb, its gaps narrow notches. The comb's level is that of its teeth, so the mouth and the comb
+// are one ring on two levels; the notches are closed with their ears (exactly the strips cut)
+// before the join, and the rest of the patch spans the counterbore between the two levels. The
+// bore is not capped.
+TEST(RingBorders, ACombOnTheLowerLevelIsClosedByItsEarsAndJoined) {
+  constexpr int kAround = 24;
+  constexpr double kRadius = 2.0, kDepth = 0.5, kBoreRadius = 1.0, kBoreDepth = 4.5;
+  const double strip_centroid_z = -(kBoreDepth + 2 * kDepth) / 3;  // two corners on top
+  std::vector<std::array<Vec3, 3>> cut;
+  Mesh mesh =
+      build_mesh(
+          testing::remove_faces(
+              testing::plate_with_a_counterbore(kAround, kRadius, kDepth, kBoreRadius, kBoreDepth),
+              [&](const Vec3& c) {
+                return (c[2] < -1e-9 && c[2] > -kDepth + 1e-9) ||  // the wall
+                       (std::abs(c[2] + kDepth) < 1e-9 &&
+                        std::hypot(c[0], c[1]) > kBoreRadius) ||  // the floor
+                       std::abs(c[2] - strip_centroid_z) < 1e-9;  // the bore's strips
+              },
+              &cut))
+          .mesh;
+  ASSERT_EQ(cut.size(), 5u * kAround);
+  const std::vector<Hole> holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 3u);  // the plate's outer border, the mouth, the comb
+  std::vector<std::uint32_t> ids;
+  std::vector<const Hole*> all;
+  for (const Hole& h : holes) {
+    all.push_back(&h);
+    if (h.area < 20) ids.push_back(h.id);
+  }
+  ASSERT_EQ(ids.size(), 2u);
+  EXPECT_EQ(find_ring_borders(mesh, all).size(), 1u);
+
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  const FillReport report =
+      fill_holes(mesh, FillSelection{.mode = FillSelection::Mode::Ids, .ids = ids}, {});
+  ASSERT_EQ(report.holes.size(), 2u);
+  EXPECT_EQ(testing::check_fill_invariants(before, mesh, report.holes, holes), "");
+  std::vector<FaceHandle> patch;
+  for (const HoleFillReport& r : report.holes) {
+    EXPECT_TRUE(r.filled) << r.reason;
+    patch.insert(patch.end(), r.new_faces.begin(), r.new_faces.end());
+  }
+  // Every strip cut from the bore's wall is back as an ear; every other new face lies between
+  // the levels, around the bore's mouth (none caps it).
+  const auto same_corners = [](const TrianglePoints& a, const std::array<Vec3, 3>& b) {
+    for (const Vec3& p : a)
+      if (std::none_of(b.begin(), b.end(), [&](const Vec3& q) { return (p - q).norm() < 1e-9; }))
+        return false;
+    return true;
+  };
+  std::size_t ears = 0;
+  for (const TrianglePoints& t : face_triangles(mesh, patch)) {
+    const bool ear = std::any_of(cut.begin(), cut.end(), [&](const std::array<Vec3, 3>& c) {
+      return std::abs((c[0][2] + c[1][2] + c[2][2]) / 3 - strip_centroid_z) < 1e-9 &&
+             same_corners(t, c);
+    });
+    if (ear) {
+      ++ears;
+      continue;
+    }
+    for (const Vec3& p : t) {
+      EXPECT_LE(p[2], 1e-9);
+      EXPECT_GE(p[2], -kDepth - 1e-9);
+    }
+    const Vec3 centroid = (t[0] + t[1] + t[2]) / 3;
+    EXPECT_GT(std::hypot(centroid[0], centroid[1]),
+              kBoreRadius * std::cos(std::numbers::pi / kAround) - 1e-9);
+  }
+  EXPECT_EQ(ears, static_cast<std::size_t>(kAround));
+  EXPECT_EQ(find_holes(mesh).holes.size(), 1u);  // the plate's outer border
+  EXPECT_TRUE(find_face_intersections(mesh, patch).empty());
 }
 
 // Only the outer border picked: it cannot be filled alone (its patch would lie on the island),
