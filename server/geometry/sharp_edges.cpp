@@ -468,22 +468,30 @@ std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, co
 
 namespace {
 
-//! The least-squares nearest point to the tangent lines of \p crossings (two or more), if it
-//! lies ahead of every crossing and within \p line_tolerance of every line.
-std::optional<Vec3> corner_ahead_of(const HoleCreasePlan& plan,
-                                    std::span<const std::size_t> crossings, double line_tolerance) {
-  if (crossings.size() < 2) return std::nullopt;
+//! The least-squares nearest point to the tangent lines of the creases of \p crossings.
+std::optional<Vec3> nearest_to_tangent_lines(const HoleCreasePlan& plan,
+                                             std::span<const std::size_t> crossings) {
   std::vector<Vec3> origins, directions;
   for (const std::size_t i : crossings) {
     origins.push_back(plan.crossings[i].position);
     directions.push_back(plan.crossings[i].inward);
   }
-  const std::optional<Vec3> corner = nearest_point_to_lines(origins, directions);
+  return nearest_point_to_lines(origins, directions);
+}
+
+//! nearest_to_tangent_lines of \p crossings (two or more), if it lies ahead of every crossing
+//! and within \p line_tolerance of every line.
+std::optional<Vec3> corner_ahead_of(const HoleCreasePlan& plan,
+                                    std::span<const std::size_t> crossings, double line_tolerance) {
+  if (crossings.size() < 2) return std::nullopt;
+  const std::optional<Vec3> corner = nearest_to_tangent_lines(plan, crossings);
   if (!corner) return std::nullopt;
-  for (std::size_t k = 0; k < crossings.size(); ++k) {
-    const Vec3 to_corner = *corner - origins[k];
-    const double along = OpenMesh::dot(to_corner, directions[k]);
-    const double off_line = (to_corner - along * directions[k]).norm();
+  for (const std::size_t i : crossings) {
+    const Vec3& origin = plan.crossings[i].position;
+    const Vec3& direction = plan.crossings[i].inward;
+    const Vec3 to_corner = *corner - origin;
+    const double along = OpenMesh::dot(to_corner, direction);
+    const double off_line = (to_corner - along * direction).norm();
     if (along <= 0 || off_line > line_tolerance) return std::nullopt;
   }
   return corner;
@@ -646,6 +654,11 @@ double farthest_bent_crease(const HoleCreasePlan& plan, std::span<const std::siz
   return worst;
 }
 
+//! RunCorners: a bend is trusted from a crease traced over this many edges...
+constexpr std::size_t kFittedBendEdges = 3;
+//! ...whose other edges bend by at most this share of its angle.
+constexpr double kFittedBendOtherRatio = 0.25;
+
 //! The corners of the runs of creases contiguous along the loop, each worked out once (the two-
 //! and three-corner searches try every split of the loop, and a run recurs in many splits): the
 //! point nearest the run's tangent lines (corner_ahead_of), moved to where its bent creases
@@ -684,11 +697,47 @@ class RunCorners {
         run.corner = corner;
         run.farthest = farthest_bent_crease(plan_, run.crossings, *corner);
       }
+    } else if (const std::optional<Vec3> near_lines =
+                   nearest_to_tangent_lines(plan_, run.crossings)) {
+      // A crease that curves into its corner misses it along its tangent line by more than the
+      // tolerance (fandisk's curved top ridge, meeting a straight one: 0.25 off its tangent, a
+      // fifth of the hole's diameter): its bent crease must pass within it instead, and the
+      // corner lie ahead of every crossing.
+      const std::optional<Vec3> corner =
+          bends_are_fitted(run.crossings)
+              ? corner_of_bent_creases(plan_, run.crossings, *near_lines)
+              : std::nullopt;
+      if (corner && near_hole_(*corner) && ahead_of_every_crossing(run.crossings, *corner)) {
+        const double farthest = farthest_bent_crease(plan_, run.crossings, *corner);
+        if (farthest <= line_tolerance_) {
+          run.corner = corner;
+          run.farthest = farthest;
+        }
+      }
     }
     return slot.emplace(std::move(run));
   }
 
  private:
+  //! The bends are fitted along clean creases (a scan's rough "creases", traced over an edge or
+  //! two among other bends, have no bend to go by: a bunny slot came out farther).
+  bool bends_are_fitted(std::span<const std::size_t> run) const {
+    for (const std::size_t i : run) {
+      const CreaseCrossing& c = plan_.crossings[i];
+      if (c.traced_edges < kFittedBendEdges ||
+          c.other_bends_deg > kFittedBendOtherRatio * c.dihedral_deg)
+        return false;
+    }
+    return true;
+  }
+
+  bool ahead_of_every_crossing(std::span<const std::size_t> run, const Vec3& corner) const {
+    for (const std::size_t i : run)
+      if (!(OpenMesh::dot(corner - plan_.crossings[i].position, plan_.crossings[i].inward) > 0))
+        return false;
+    return true;
+  }
+
   const HoleCreasePlan& plan_;
   std::span<const std::size_t> crossings_;
   double line_tolerance_;

@@ -133,6 +133,31 @@ TEST(RingBorders, FillingTheSheetClosesTheRingBetweenItsBorders) {
   EXPECT_TRUE(find_face_intersections(mesh, patch).empty());
 }
 
+//! A plate with a pocket or counterbore whose wall was cut has three loops: the plate's outer
+//! border, the mouth's and the lower level's. The two small ones are one ring on two levels;
+//! filled together, both close (the fill invariants kept) and \p patch gets their new faces.
+void fill_the_two_levels(Mesh& mesh, std::vector<FaceHandle>& patch) {
+  const std::vector<Hole> holes = find_holes(mesh).holes;
+  ASSERT_EQ(holes.size(), 3u);
+  std::vector<std::uint32_t> ids;
+  std::vector<const Hole*> all;
+  for (const Hole& h : holes) {
+    all.push_back(&h);
+    if (h.area < 20) ids.push_back(h.id);
+  }
+  ASSERT_EQ(ids.size(), 2u);
+  EXPECT_EQ(find_ring_borders(mesh, all).size(), 1u);
+  const testing::Snapshot before = testing::take_snapshot(mesh);
+  const FillReport report =
+      fill_holes(mesh, FillSelection{.mode = FillSelection::Mode::Ids, .ids = ids}, {});
+  ASSERT_EQ(report.holes.size(), 2u);
+  EXPECT_EQ(testing::check_fill_invariants(before, mesh, report.holes, holes), "");
+  for (const HoleFillReport& r : report.holes) {
+    EXPECT_TRUE(r.filled) << r.reason;
+    patch.insert(patch.end(), r.new_faces.begin(), r.new_faces.end());
+  }
+}
+
 // A pocket whose wall was cut (a slot along its rim's crease takes it on a CAD part): the
 // plate's border around its mouth and the floor's border below it run opposite ways on two
 // parallel planes. They are one ring on two levels, and the fill between them is the wall: every
@@ -157,27 +182,8 @@ void expect_the_wall_filled(bool keep_a_tooth) {
                                        in_the_wall, &cut))
           .mesh;
   ASSERT_EQ(cut.size(), 4u * kAround - (keep_a_tooth ? 1 : 0));
-  const std::vector<Hole> holes = find_holes(mesh).holes;
-  ASSERT_EQ(holes.size(), 3u);  // the plate's outer border, the pocket's mouth, its floor's
-  std::vector<std::uint32_t> pocket_ids;
-  std::vector<const Hole*> all;
-  for (const Hole& h : holes) {
-    all.push_back(&h);
-    if (h.area < 20) pocket_ids.push_back(h.id);
-  }
-  ASSERT_EQ(pocket_ids.size(), 2u);
-  EXPECT_EQ(find_ring_borders(mesh, all).size(), 1u);
-
-  const testing::Snapshot before = testing::take_snapshot(mesh);
-  const FillReport report =
-      fill_holes(mesh, FillSelection{.mode = FillSelection::Mode::Ids, .ids = pocket_ids}, {});
-  ASSERT_EQ(report.holes.size(), 2u);
-  EXPECT_EQ(testing::check_fill_invariants(before, mesh, report.holes, holes), "");
   std::vector<FaceHandle> patch;
-  for (const HoleFillReport& r : report.holes) {
-    EXPECT_TRUE(r.filled) << r.reason;
-    patch.insert(patch.end(), r.new_faces.begin(), r.new_faces.end());
-  }
+  ASSERT_NO_FATAL_FAILURE(fill_the_two_levels(mesh, patch));
   ASSERT_FALSE(patch.empty());
   // On the prism: between the sides' chords and the circle, between the two levels.
   const double chord = kRadius * std::cos(std::numbers::pi / kAround);
@@ -228,27 +234,8 @@ TEST(RingBorders, ACombOnTheLowerLevelIsClosedByItsEarsAndJoined) {
               &cut))
           .mesh;
   ASSERT_EQ(cut.size(), 5u * kAround);
-  const std::vector<Hole> holes = find_holes(mesh).holes;
-  ASSERT_EQ(holes.size(), 3u);  // the plate's outer border, the mouth, the comb
-  std::vector<std::uint32_t> ids;
-  std::vector<const Hole*> all;
-  for (const Hole& h : holes) {
-    all.push_back(&h);
-    if (h.area < 20) ids.push_back(h.id);
-  }
-  ASSERT_EQ(ids.size(), 2u);
-  EXPECT_EQ(find_ring_borders(mesh, all).size(), 1u);
-
-  const testing::Snapshot before = testing::take_snapshot(mesh);
-  const FillReport report =
-      fill_holes(mesh, FillSelection{.mode = FillSelection::Mode::Ids, .ids = ids}, {});
-  ASSERT_EQ(report.holes.size(), 2u);
-  EXPECT_EQ(testing::check_fill_invariants(before, mesh, report.holes, holes), "");
   std::vector<FaceHandle> patch;
-  for (const HoleFillReport& r : report.holes) {
-    EXPECT_TRUE(r.filled) << r.reason;
-    patch.insert(patch.end(), r.new_faces.begin(), r.new_faces.end());
-  }
+  ASSERT_NO_FATAL_FAILURE(fill_the_two_levels(mesh, patch));
   // Every strip cut from the bore's wall is back as an ear; every other new face lies between
   // the levels, around the bore's mouth (none caps it).
   const auto same_corners = [](const TrianglePoints& a, const std::array<Vec3, 3>& b) {
