@@ -1631,6 +1631,21 @@ HoleFillReport remove_fragment(Mesh& mesh, const Hole& hole) {
   return report;
 }
 
+//! The narrow notches of \p hole closed with their ears (pinch_closing.h) when the options ask
+//! for it (not for an operator's picked creases, which name rim vertices the ears would take);
+//! the ears are filed in \p reach. None on failure, the mesh as it was.
+PinchClosure close_notches_if_asked(Mesh& mesh, const Hole& hole, const FillOptions& options,
+                                    SearchReach& reach) {
+  if (!options.close_notches || options.explicit_creases) return {};
+  PinchClosure notches = close_notches(mesh, hole, reach);
+  if (!notches.failure.empty()) {
+    remove_patch(mesh, notches.faces, {});
+    return {};
+  }
+  if (!notches.faces.empty()) reach.add(mesh, notches.faces);
+  return notches;
+}
+
 //! fill_hole with the search reach kept across holes (the new faces are filed in it).
 HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions& options,
                                 SearchReach& reach) {
@@ -1665,16 +1680,7 @@ HoleFillReport fill_hole_cached(Mesh& mesh, const Hole& hole, const FillOptions&
     reach.add(mesh, pinches.faces);
     disk = &pinches.hole;
   }
-  PinchClosure notches;
-  if (options.close_notches && !options.explicit_creases) {
-    notches = close_notches(mesh, *disk, reach);
-    if (!notches.failure.empty()) {
-      remove_patch(mesh, notches.faces, {});
-      notches = {};
-    } else if (!notches.faces.empty()) {
-      reach.add(mesh, notches.faces);
-    }
-  }
+  PinchClosure notches = close_notches_if_asked(mesh, *disk, options, reach);
   // Creases planned on the pinched loop (sharpen's picks) name their rim vertices by position in
   // that loop: renumbered for the disk's.
   FillOptions disk_options = options;
@@ -1733,16 +1739,7 @@ std::pair<HoleFillReport, HoleFillReport> fill_ring(Mesh& mesh, const Hole& oute
   // An inner border that is a comb (a wall of strip triangles cut every other one: its ring's
   // level is that of the teeth, borders_one_ring) has its notches closed before the join, whose
   // triangles would otherwise reach into a gap between two teeth and meet them.
-  PinchClosure notches;
-  if (options.close_notches && !options.explicit_creases) {
-    notches = close_notches(mesh, inner, reach);
-    if (!notches.failure.empty()) {
-      remove_patch(mesh, notches.faces, {});
-      notches = {};
-    } else if (!notches.faces.empty()) {
-      reach.add(mesh, notches.faces);
-    }
-  }
+  const PinchClosure notches = close_notches_if_asked(mesh, inner, options, reach);
   const RingJoin join =
       join_ring_borders(mesh, outer, notches.faces.empty() ? inner : notches.hole, reach);
   if (!join.failure.empty()) {

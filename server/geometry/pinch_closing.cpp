@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -143,14 +144,26 @@ PinchClosure close_pinches(Mesh& mesh, const Hole& hole, const SearchReach& reac
   return out;
 }
 
+namespace {
+
+//! The cosine of the rim's corner p -> v -> a when it is narrower than a notch's limit.
+std::optional<double> narrow_corner_cos(const Mesh& mesh, VertexHandle p, VertexHandle v,
+                                        VertexHandle a) {
+  const Vec3 to_p = (mesh.point(p) - mesh.point(v)).normalize_cond();
+  const Vec3 to_a = (mesh.point(a) - mesh.point(v)).normalize_cond();
+  const double corner_cos = OpenMesh::dot(to_p, to_a);
+  if (!(corner_cos > std::cos(kNotchMaxCornerDeg * std::numbers::pi / 180))) return std::nullopt;
+  return corner_cos;
+}
+
+}  // namespace
+
 bool is_narrow_notch(const Mesh& mesh, const Hole& hole, std::size_t i) {
   const std::size_t n = hole.loop.size();
   if (n < 4 || hole.halfedges.size() != n) return false;
   const std::size_t previous = (i + n - 1) % n;
   const VertexHandle p = hole.loop[previous], v = hole.loop[i], a = hole.loop[(i + 1) % n];
-  const Vec3 to_p = (mesh.point(p) - mesh.point(v)).normalize_cond();
-  const Vec3 to_a = (mesh.point(a) - mesh.point(v)).normalize_cond();
-  return OpenMesh::dot(to_p, to_a) > std::cos(kNotchMaxCornerDeg * std::numbers::pi / 180) &&
+  return narrow_corner_cos(mesh, p, v, a) &&
          !folds_against_rim(mesh, {p, v, a}, {hole.halfedges[previous], hole.halfedges[i]},
                             kNotchMaxFoldCos);
 }
@@ -159,7 +172,6 @@ PinchClosure close_notches(Mesh& mesh, const Hole& hole, const SearchReach& reac
   PinchClosure out;
   std::vector<VertexHandle> loop = hole.loop;
   std::vector<HalfedgeHandle> halfedges = hole.halfedges;
-  const double max_corner_cos = std::cos(kNotchMaxCornerDeg * std::numbers::pi / 180);
   // One ear at a time, the scan begun again after each: closing one changes the corners of its
   // two neighbours. An ear refused for meeting the mesh or not linking in is not tried again
   // (each such test is a search of the faces near it).
@@ -171,13 +183,11 @@ PinchClosure close_notches(Mesh& mesh, const Hole& hole, const SearchReach& reac
       const std::size_t previous = (i + n - 1) % n;
       const VertexHandle p = loop[previous], v = loop[i], a = loop[(i + 1) % n];
       if (p == a || p == v || a == v) continue;
-      const Vec3 to_p = (mesh.point(p) - mesh.point(v)).normalize_cond();
-      const Vec3 to_a = (mesh.point(a) - mesh.point(v)).normalize_cond();
-      const double corner_cos = OpenMesh::dot(to_p, to_a);
-      if (!(corner_cos > max_corner_cos)) continue;
+      const std::optional<double> corner_cos = narrow_corner_cos(mesh, p, v, a);
+      if (!corner_cos) continue;
       if (mesh.find_halfedge(p, a).is_valid() || mesh.find_halfedge(a, p).is_valid()) continue;
       // The corner is the ear's smallest angle (1e-9: the corner itself, rounded).
-      const double corner_sine = std::sqrt(std::max(0.0, 1 - corner_cos * corner_cos));
+      const double corner_sine = std::sqrt(std::max(0.0, 1 - *corner_cos * *corner_cos));
       const double sine = min_angle_sine(mesh.point(p), mesh.point(v), mesh.point(a));
       if (!(sine > std::sin(kDegenerateAngleDeg * std::numbers::pi / 180)) ||
           sine < corner_sine - 1e-9)
