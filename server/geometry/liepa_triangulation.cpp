@@ -77,7 +77,6 @@ MinDihedralTriangulator::MinDihedralTriangulator(std::span<const Vec3> loop,
                                                  std::span<const std::pair<int, int>> blocked,
                                                  const LiepaTriangulationOptions& options)
     : n_(static_cast<int>(loop.size())),
-      external_forbidden_(options.forbidden),
       largest_angle_cos_(options.max_angle_deg < 180
                              ? std::cos(options.max_angle_deg * std::numbers::pi / 180)
                              : -2.0),
@@ -131,6 +130,7 @@ MinDihedralTriangulator::MinDihedralTriangulator(std::span<const Vec3> loop,
   words_ = (N + 63) / 64;
   solvable_from_.assign(N * words_, 0);
   solvable_to_.assign(N * words_, 0);
+  base_of_forbidden_.assign(N * N, 0);
 }
 
 void MinDihedralTriangulator::set_solvable(int i, int k, bool solvable) {
@@ -166,9 +166,7 @@ double MinDihedralTriangulator::lowest_possible_angle() const {
 }
 
 bool MinDihedralTriangulator::is_forbidden(int i, int m, int k) const {
-  const std::uint64_t key = forbidden_key(i, m, k, n_);
-  return forbidden_.count(key) != 0 ||
-         (external_forbidden_ != nullptr && external_forbidden_->count(key) != 0);
+  return forbidden_.count(forbidden_key(i, m, k, n_)) != 0;
 }
 
 void MinDihedralTriangulator::mark_dirty(int first, int last) {
@@ -181,6 +179,7 @@ void MinDihedralTriangulator::forbid(std::array<int, 3> corners) {
   std::sort(corners.begin(), corners.end());
   if (!failure_.empty() || corners[0] < 0 || corners[2] >= n_) return;
   if (!forbidden_.insert(forbidden_key(corners[0], corners[1], corners[2], n_)).second) return;
+  base_of_forbidden_[at(corners[0], corners[2])] = 1;
   mark_dirty(corners[0], corners[2]);
 }
 
@@ -243,9 +242,6 @@ void MinDihedralTriangulator::solve_intervals() {
     weight_[at(i, i + 1)] = Weight{};
     set_solvable(i, i + 1, true);
   }
-  // Most solves forbid nothing: no hash lookup per candidate then.
-  const bool any_forbidden =
-      !forbidden_.empty() || (external_forbidden_ != nullptr && !external_forbidden_->empty());
   for (int len = 2; len < n_; ++len) {
     for (int i = 0; i + len < n_; ++i) {
       const int k = i + len;
@@ -254,6 +250,8 @@ void MinDihedralTriangulator::solve_intervals() {
       Weight best = invalid;
       int best_m = -1;
       Vec3 best_normal(0, 0, 0);
+      // Most intervals are the base of no forbidden triangle: no hash lookup per candidate.
+      const bool has_forbidden = base_of_forbidden_[at(i, k)] != 0;
       if (blocked_[at(i, k)]) {
         weight_[at(i, k)] = invalid;
         lambda_[at(i, k)] = -1;
@@ -268,7 +266,7 @@ void MinDihedralTriangulator::solve_intervals() {
         // this candidate cannot win (the checks follow in order of cost).
         const double bound = std::min(best.angle, angle_bound_) + kAngleTie;
         if (std::max(left.angle, right.angle) > bound) return;
-        if (any_forbidden && is_forbidden(i, m, k)) return;
+        if (has_forbidden && is_forbidden(i, m, k)) return;
         if (largest_angle_cos_ > -2 &&
             largest_angle_cos(loop_[i], loop_[m], loop_[k]) < largest_angle_cos_)
           return;

@@ -18,9 +18,6 @@ namespace touchmend::geometry {
 
 struct LiepaTriangulationOptions {
   std::size_t max_vertices = 400;  //!< O(n^3) time, O(n^2) memory: refuse larger loops
-  //! Triangles (i, m, k), i < m < k, that may not be used (ours: those found to intersect the
-  //! mesh on an earlier solve; see forbidden_key).
-  const std::unordered_set<std::uint64_t>* forbidden = nullptr;
   //! Search under a rising bound on the largest dihedral angle (ours): a pass weighs only the
   //! candidate triangles that bend by at most the bound, which starts at a lower bound of the
   //! optimum's largest bend and rises until a pass finds a triangulation. That one is the
@@ -38,8 +35,8 @@ struct LiepaTriangulationOptions {
   double max_angle_deg = 180;
 };
 
-//! Key of triangle (i, m, k), i < m < k, of an n-vertex loop in
-//! LiepaTriangulationOptions::forbidden.
+//! Key of triangle (i, m, k), i < m < k, of an n-vertex loop (the forbidden triangles of
+//! MinDihedralTriangulator, the fill's verdicts on them).
 inline std::uint64_t forbidden_key(int i, int m, int k, int n) {
   const auto N = static_cast<std::uint64_t>(n);
   return (static_cast<std::uint64_t>(i) * N + static_cast<std::uint64_t>(m)) * N +
@@ -115,11 +112,13 @@ class MinDihedralTriangulator {
   std::vector<Vec3> boundary_normal_;  //!< of the mesh triangle across boundary edge i -> i+1
   std::vector<char> blocked_;          //!< n x n: pairs joined by a mesh edge outside the hole
   double min_area_ = 0;
-  const std::unordered_set<std::uint64_t>* external_forbidden_ = nullptr;
   double largest_angle_cos_ = -2;  //!< triangles whose largest angle's cos is below are not used
   bool rising_angle_bound_ = true;
   double angle_bound_ = 0;  //!< candidates bending more than this are not weighed
   std::unordered_set<std::uint64_t> forbidden_;
+  //! n x n: interval (i, k) is the base of a forbidden triangle (the programme weighs triangle
+  //! (a, b, c), a < b < c, only in interval (a, c)), so only those look up forbidden_.
+  std::vector<char> base_of_forbidden_;
   //! Per i: the smallest k of a triangle forbidden since the last solve whose first corner is
   //! >= i (suffix minimum): interval (i, k) must be solved again iff k >= dirty_from_[i].
   std::vector<int> dirty_from_;

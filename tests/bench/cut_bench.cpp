@@ -190,6 +190,8 @@ struct Tally {
   //! --along-creases: per cut, the crease distance (‰); cuts with a hole left open have none.
   std::vector<double> crease;
   std::vector<std::string> open_holes;  //!< where and why, one line each
+  //! Every closed fill's time (ms) and what it was (where, method), for --slowest.
+  std::vector<std::pair<double, std::string>> timed_fills;
 
   void add(const Tally& o) {
     cuts += o.cuts;
@@ -208,6 +210,7 @@ struct Tally {
     ms.insert(ms.end(), o.ms.begin(), o.ms.end());
     crease.insert(crease.end(), o.crease.begin(), o.crease.end());
     open_holes.insert(open_holes.end(), o.open_holes.begin(), o.open_holes.end());
+    timed_fills.insert(timed_fills.end(), o.timed_fills.begin(), o.timed_fills.end());
   }
 };
 
@@ -269,6 +272,10 @@ int main(int argc, char** argv) {
                  "fill it again with the touchmend command line");
   app.add_flag("--per-hole", per_hole,
                "Also print one line per hole (for comparing two builds fill by fill)");
+  int slowest = 0;
+  app.add_option("--slowest", slowest,
+                 "Also list the N slowest fills (time, where, method, shape, faces)")
+      ->check(CLI::Range(0, 100000));
   bool along_creases = false;
   app.add_flag("--along-creases", along_creases,
                "Cut slots along the meshes' creases (dihedral over 60°) instead of balls: 1-3 "
@@ -461,6 +468,11 @@ int main(int argc, char** argv) {
               if (rim_allows) ++tally.under_15_rim_allows;
             }
             tally.ms.push_back(1e3 * r.seconds);
+            tally.timed_fills.emplace_back(
+                1e3 * r.seconds,
+                fmt::format("{} hole {} ({} edges): {}/{}, {} faces", where, r.hole_id,
+                            r.boundary_vertices, geo::to_string(r.method), geo::to_string(r.shape),
+                            r.new_faces.size()));
             line += fmt::format(
                 "{}/{} min {:.2f}°{} faces {}", geo::to_string(r.method), geo::to_string(r.shape),
                 angle, angle < 15.0 && rim_allows ? " (rim allows 15°)" : "", r.new_faces.size());
@@ -499,6 +511,15 @@ int main(int argc, char** argv) {
       "and angles counted, distances not): {}\n",
       total.own_openings, total.merged);
   for (const std::string& line : total.open_holes) fmt::print("left open: {}\n", line);
+  if (slowest > 0) {
+    auto& fills = total.timed_fills;
+    const auto n = std::min(fills.size(), static_cast<std::size_t>(slowest));
+    std::partial_sort(fills.begin(), fills.begin() + static_cast<std::ptrdiff_t>(n), fills.end(),
+                      [](const auto& a, const auto& b) { return a.first > b.first; });
+    fmt::print("\nslowest fills:\n");
+    for (std::size_t i = 0; i < n; ++i)
+      fmt::print("{:9.2f} ms  {}\n", fills[i].first, fills[i].second);
+  }
   if (per_hole) {
     fmt::print("\n");
     for (const std::string& line : hole_lines) fmt::print("{}\n", line);

@@ -82,6 +82,22 @@ TEST(MinimumDihedralTriangulation, RefusesOversizedAndBlockedLoops) {
   }
 }
 
+//! The reference for the kept tables: a new triangulator told the whole forbidden set (and
+//! forbidden chords) before its first solve, which solves every interval.
+LiepaTriangulation solve_from_scratch(const std::vector<Vec3>& loop,
+                                      const std::vector<Vec3>& opposite,
+                                      const LiepaTriangulationOptions& options,
+                                      const std::unordered_set<std::uint64_t>& forbidden,
+                                      const std::vector<std::pair<int, int>>& chords = {}) {
+  const auto n = static_cast<std::uint64_t>(loop.size());
+  MinDihedralTriangulator fresh(loop, opposite, {}, options);
+  for (const std::uint64_t key : forbidden)
+    fresh.forbid({static_cast<int>(key / (n * n)), static_cast<int>(key / n % n),
+                  static_cast<int>(key % n)});
+  for (const auto& [a, b] : chords) fresh.forbid_chord(a, b);
+  return fresh.solve();
+}
+
 TEST(MinimumDihedralTriangulation, ForbiddenTrianglesAreNeverUsed) {
   // A planar 10-gon: forbid every triangle of the first solution and solve again; the second
   // solution is a different full triangulation that uses none of them.
@@ -95,9 +111,7 @@ TEST(MinimumDihedralTriangulation, ForbiddenTrianglesAreNeverUsed) {
     std::sort(t.begin(), t.end());
     forbidden.insert(forbidden_key(t[0], t[1], t[2], n));
   }
-  LiepaTriangulationOptions options;
-  options.forbidden = &forbidden;
-  const auto second = triangulate_min_dihedral(loop, opposite, {}, options);
+  const auto second = solve_from_scratch(loop, opposite, {}, forbidden);
   ASSERT_TRUE(second.ok) << second.failure;
   EXPECT_EQ(second.triangles.size(), static_cast<std::size_t>(n - 2));
   for (auto t : second.triangles) {
@@ -126,12 +140,10 @@ TEST(MinimumDihedralTriangulation, IncrementalSolvesMatchSolvingFromScratch) {
   bumpy_loop(n, loop, opposite);
   MinDihedralTriangulator solver(loop, opposite, {});
   std::unordered_set<std::uint64_t> forbidden;
-  LiepaTriangulationOptions scratch;
-  scratch.forbidden = &forbidden;
   const std::size_t all_intervals = static_cast<std::size_t>((n - 1) * (n - 2) / 2);
   for (int round = 0; round < 6; ++round) {
     const auto kept = solver.solve();
-    const auto fresh = triangulate_min_dihedral(loop, opposite, {}, scratch);
+    const auto fresh = solve_from_scratch(loop, opposite, {}, forbidden);
     ASSERT_EQ(kept.ok, fresh.ok) << "round " << round;
     if (!kept.ok) break;
     EXPECT_EQ(kept.triangles, fresh.triangles) << "round " << round;
@@ -314,11 +326,10 @@ TEST(MinimumDihedralTriangulation, RisingAngleBoundSurvivesForbiddenRounds) {
     MinDihedralTriangulator solver(loop, opposite, {}, rising);
     std::unordered_set<std::uint64_t> forbidden;
     LiepaTriangulationOptions scratch;
-    scratch.forbidden = &forbidden;
     scratch.rising_angle_bound = false;
     for (int round = 0; round < 4; ++round) {
       const auto kept = solver.solve();
-      const auto fresh = triangulate_min_dihedral(loop, opposite, {}, scratch);
+      const auto fresh = solve_from_scratch(loop, opposite, scratch, forbidden);
       ASSERT_EQ(kept.ok, fresh.ok) << "trial " << trial << " round " << round;
       if (!kept.ok) break;
       EXPECT_EQ(kept.triangles, fresh.triangles) << "trial " << trial << " round " << round;
@@ -326,6 +337,50 @@ TEST(MinimumDihedralTriangulation, RisingAngleBoundSurvivesForbiddenRounds) {
         solver.forbid(t);
         std::sort(t.begin(), t.end());
         forbidden.insert(forbidden_key(t[0], t[1], t[2], n));
+      }
+    }
+  }
+}
+
+TEST(MinimumDihedralTriangulation, KeptTablesMatchSolvingFromScratchUnderRandomForbids) {
+  // Rounds that forbid random triangles and chords, on random and folded loops, with and
+  // without the rising bound: every solve of the kept tables (which solves again only the
+  // intervals around what was forbidden) equals a solve from scratch.
+  std::mt19937 random(11);
+  for (int trial = 0; trial < 40; ++trial) {
+    std::vector<Vec3> loop, opposite;
+    const int n = 8 + trial;
+    if (trial % 2 == 0) {
+      random_loop(n, random, loop, opposite);
+    } else {
+      folded_loop(n, loop, opposite);
+    }
+    LiepaTriangulationOptions options;
+    options.rising_angle_bound_min_vertices = trial % 4 < 2 ? 3 : 1000;
+    MinDihedralTriangulator solver(loop, opposite, {}, options);
+    std::unordered_set<std::uint64_t> forbidden;
+    std::vector<std::pair<int, int>> chords;
+    std::uniform_int_distribution<int> corner(0, n - 1);
+    for (int round = 0; round < 8; ++round) {
+      const auto kept = solver.solve();
+      const auto fresh = solve_from_scratch(loop, opposite, options, forbidden, chords);
+      ASSERT_EQ(kept.ok, fresh.ok) << "trial " << trial << " round " << round;
+      if (!kept.ok) break;
+      ASSERT_EQ(kept.triangles, fresh.triangles) << "trial " << trial << " round " << round;
+      // One triangle of the solution (as the fill's rounds forbid) and one anywhere.
+      std::array<int, 3> used =
+          kept.triangles[static_cast<std::size_t>(corner(random)) % kept.triangles.size()];
+      std::array<int, 3> any{corner(random), corner(random), corner(random)};
+      for (auto t : {used, any}) {
+        std::sort(t.begin(), t.end());
+        if (t[0] == t[1] || t[1] == t[2]) continue;
+        solver.forbid(t);
+        forbidden.insert(forbidden_key(t[0], t[1], t[2], n));
+      }
+      if (round % 3 == 2) {
+        const int a = corner(random), b = corner(random);
+        solver.forbid_chord(a, b);
+        chords.emplace_back(a, b);
       }
     }
   }
