@@ -232,6 +232,18 @@ void random_loop(int n, std::mt19937& random, std::vector<Vec3>& loop,
   }
 }
 
+//! The loop of a trial of the forbidden-round tests: 8 + \p trial vertices, random on even
+//! trials, folded on odd ones.
+void trial_loop(int trial, std::mt19937& random, std::vector<Vec3>& loop,
+                std::vector<Vec3>& opposite) {
+  const int n = 8 + trial;
+  if (trial % 2 == 0) {
+    random_loop(n, random, loop, opposite);
+  } else {
+    folded_loop(n, loop, opposite);
+  }
+}
+
 TEST(MinimumDihedralTriangulation, RisingAngleBoundMatchesOnRandomLoops) {
   LiepaTriangulationOptions exhaustive, rising;
   exhaustive.rising_angle_bound = false;
@@ -317,12 +329,8 @@ TEST(MinimumDihedralTriangulation, RisingAngleBoundSurvivesForbiddenRounds) {
   rising.rising_angle_bound_min_vertices = 3;
   for (int trial = 0; trial < 30; ++trial) {
     std::vector<Vec3> loop, opposite;
-    const int n = 8 + trial;
-    if (trial % 2 == 0) {
-      random_loop(n, random, loop, opposite);
-    } else {
-      folded_loop(n, loop, opposite);
-    }
+    trial_loop(trial, random, loop, opposite);
+    const int n = static_cast<int>(loop.size());
     MinDihedralTriangulator solver(loop, opposite, {}, rising);
     std::unordered_set<std::uint64_t> forbidden;
     LiepaTriangulationOptions scratch;
@@ -349,12 +357,8 @@ TEST(MinimumDihedralTriangulation, KeptTablesMatchSolvingFromScratchUnderRandomF
   std::mt19937 random(11);
   for (int trial = 0; trial < 40; ++trial) {
     std::vector<Vec3> loop, opposite;
-    const int n = 8 + trial;
-    if (trial % 2 == 0) {
-      random_loop(n, random, loop, opposite);
-    } else {
-      folded_loop(n, loop, opposite);
-    }
+    trial_loop(trial, random, loop, opposite);
+    const int n = static_cast<int>(loop.size());
     LiepaTriangulationOptions options;
     options.rising_angle_bound_min_vertices = trial % 4 < 2 ? 3 : 1000;
     MinDihedralTriangulator solver(loop, opposite, {}, options);
