@@ -661,9 +661,9 @@ constexpr double kFittedBendOtherRatio = 0.25;
 //! RunCorners: the corner of clean creases may lie up to this many rim radii from the rim's
 //! centroid (the rim's ball otherwise). A ball cut that takes the tip of a thin wing leaves a
 //! belt around the wing, and the tip's corners stick out of it (fandisk: 1.27 rim radii). Measured
-//! on the ball-cut bench, seeds 1-9: 1.5 closes the 4-crease holes of fandisk's wing tips as two
-//! corners (24 fills closer, none farther); without the clean-crease condition two hand cuts
-//! took corners of its finger grooves as well (Hausdorff 31 -> 66 per mille).
+//! on the ball-cut bench, seeds 1-9: 1.5 fills the 4-crease holes of fandisk's wing tips along
+//! two corners (20 fills closer, none farther); for every run, two hand cuts took corners of its
+//! finger grooves as well (Hausdorff 31 -> 66 per mille).
 constexpr double kTipReachRimRadii = 1.5;
 
 //! The corners of the runs of creases contiguous along the loop, each worked out once (the two-
