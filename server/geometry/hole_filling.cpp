@@ -381,17 +381,16 @@ TopologyPatch triangulate(FillMethod method, const Mesh& mesh, const Hole& hole,
         for (const auto& [key, crosses] : crosses_mesh)
           if (crosses) crossing.push_back(key);
         std::sort(crossing.begin(), crossing.end());  // the same order on every run
-        const auto N = static_cast<std::uint64_t>(n);
-        for (const std::uint64_t key : crossing)
-          probe_fans_beside({static_cast<int>(key / (N * N)), static_cast<int>(key / N % N),
-                             static_cast<int>(key % N)});
+        for (const std::uint64_t key : crossing) probe_fans_beside(forbidden_corners(key, n));
       }
       for (const std::size_t b : bad) {
         solver.forbid(out.triangles[b]);
+        if (!probing_fans) continue;
         std::array<int, 3> sorted = out.triangles[b];
         std::sort(sorted.begin(), sorted.end());
+        // Beside the triangles that cross the mesh (not those that only meet the solution).
         const auto it = crosses_mesh.find(forbidden_key(sorted[0], sorted[1], sorted[2], n));
-        if (probing_fans && it != crosses_mesh.end() && it->second) probe_fans_beside(sorted);
+        if (it != crosses_mesh.end() && it->second) probe_fans_beside(sorted);
       }
       for (const auto& [a, b] : crossing_chords) solver.forbid_chord(a, b);
       crossing_chords.clear();

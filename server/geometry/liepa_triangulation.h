@@ -43,6 +43,13 @@ inline std::uint64_t forbidden_key(int i, int m, int k, int n) {
          static_cast<std::uint64_t>(k);
 }
 
+//! The triangle (i, m, k) whose forbidden_key over an \p n-vertex loop is \p key.
+inline std::array<int, 3> forbidden_corners(std::uint64_t key, int n) {
+  const auto N = static_cast<std::uint64_t>(n);
+  return {static_cast<int>(key / (N * N)), static_cast<int>(key / N % N),
+          static_cast<int>(key % N)};
+}
+
 struct LiepaTriangulation {
   bool ok = false;
   std::string failure;

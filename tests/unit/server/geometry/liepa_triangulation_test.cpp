@@ -89,11 +89,9 @@ LiepaTriangulation solve_from_scratch(const std::vector<Vec3>& loop,
                                       const LiepaTriangulationOptions& options,
                                       const std::unordered_set<std::uint64_t>& forbidden,
                                       const std::vector<std::pair<int, int>>& chords = {}) {
-  const auto n = static_cast<std::uint64_t>(loop.size());
   MinDihedralTriangulator fresh(loop, opposite, {}, options);
   for (const std::uint64_t key : forbidden)
-    fresh.forbid({static_cast<int>(key / (n * n)), static_cast<int>(key / n % n),
-                  static_cast<int>(key % n)});
+    fresh.forbid(forbidden_corners(key, static_cast<int>(loop.size())));
   for (const auto& [a, b] : chords) fresh.forbid_chord(a, b);
   return fresh.solve();
 }
