@@ -1647,6 +1647,29 @@ std::string meeting_at_corners(std::size_t corners) {
   return corners == 1 ? " meeting at a corner" : fmt::format(" meeting at {} corners", corners);
 }
 
+namespace {
+
+//! \p out, \p plan with curves taken out, or none if it has no curve left; every crossing no
+//! curve of it uses is reported unmatched, as a plan reports its own.
+std::optional<HoleCreasePlan> with_unused_crossings_unmatched(const HoleCreasePlan& plan,
+                                                              HoleCreasePlan out) {
+  if (out.curves.empty()) return std::nullopt;
+  std::vector<char> used(out.crossings.size(), 0);
+  for (const CreaseCurve& c : out.curves) {
+    used[c.from] = 1;
+    if (c.to) used[*c.to] = 1;
+  }
+  for (const CreaseCurve& c : plan.curves)
+    for (const std::optional<std::size_t> end : {std::optional<std::size_t>(c.from), c.to})
+      if (end && !used[*end] &&
+          std::find(out.unmatched.begin(), out.unmatched.end(), *end) == out.unmatched.end())
+        out.unmatched.push_back(*end);
+  out.summary = plan_summary(out);
+  return out;
+}
+
+}  // namespace
+
 std::optional<HoleCreasePlan> plan_without_weakest_curve(const HoleCreasePlan& plan,
                                                          const CreaseOptions& options,
                                                          const std::optional<Vec3>& failed_at) {
@@ -1682,31 +1705,21 @@ std::optional<HoleCreasePlan> plan_without_weakest_curve(const HoleCreasePlan& p
     drop_corners = !plan.corners.empty() &&
                    !(worst && plan.curves[*worst].misfit > options.pair_angle_deg * kDeg);
   }
+  if (drop_corners) return plan_without_corners(plan);
+  if (!worst) return std::nullopt;
   HoleCreasePlan out = plan;
-  if (drop_corners) {
-    // The corners go together: two or three in a row are one structure of creases.
-    std::erase_if(out.curves, [](const CreaseCurve& c) { return !c.to; });
-    out.corners.clear();
-    out.corner_links.clear();
-  } else if (worst) {
-    out.curves.erase(out.curves.begin() + static_cast<std::ptrdiff_t>(*worst));
-  } else {
-    return std::nullopt;
-  }
-  if (out.curves.empty()) return std::nullopt;
-  // Every crossing no curve uses now is left over, as the plan reports its unmatched ones.
-  std::vector<char> used(out.crossings.size(), 0);
-  for (const CreaseCurve& c : out.curves) {
-    used[c.from] = 1;
-    if (c.to) used[*c.to] = 1;
-  }
-  for (const CreaseCurve& c : plan.curves)
-    for (const std::optional<std::size_t> end : {std::optional<std::size_t>(c.from), c.to})
-      if (end && !used[*end] &&
-          std::find(out.unmatched.begin(), out.unmatched.end(), *end) == out.unmatched.end())
-        out.unmatched.push_back(*end);
-  out.summary = plan_summary(out);
-  return out;
+  out.curves.erase(out.curves.begin() + static_cast<std::ptrdiff_t>(*worst));
+  return with_unused_crossings_unmatched(plan, std::move(out));
+}
+
+std::optional<HoleCreasePlan> plan_without_corners(const HoleCreasePlan& plan) {
+  if (plan.corners.empty()) return std::nullopt;
+  // The corners go together: two or three in a row are one structure of creases.
+  HoleCreasePlan out = plan;
+  std::erase_if(out.curves, [](const CreaseCurve& c) { return !c.to; });
+  out.corners.clear();
+  out.corner_links.clear();
+  return with_unused_crossings_unmatched(plan, std::move(out));
 }
 
 std::vector<CurveSplitInput::Curve> sample_plan_curves(const HoleCreasePlan& plan,

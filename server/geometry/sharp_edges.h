@@ -217,6 +217,10 @@ std::optional<HoleCreasePlan> plan_without_weakest_curve(
     const HoleCreasePlan& plan, const CreaseOptions& options = {},
     const std::optional<Vec3>& failed_at = std::nullopt);
 
+//! The plan without its corners (every corner crease and link), as plan_without_weakest_curve
+//! leaves them out; none when it has no corners or no curve would be left.
+std::optional<HoleCreasePlan> plan_without_corners(const HoleCreasePlan& plan);
+
 //! Extends the creases of \p crossings (indices into plan.crossings, three or more) to a common
 //! corner: the least-squares nearest point to their tangent lines, which must lie ahead of every
 //! crossing and within \p line_tolerance of every line. On success appends the corner to

@@ -290,6 +290,15 @@ TEST(SharpEdges, ThePlanLosesTheCurveNearestTheTroubleOrItsLeastCertainOne) {
   ASSERT_TRUE(near_corner);
   ASSERT_EQ(near_corner->curves.size(), 2u);
   EXPECT_TRUE(near_corner->corners.empty());
+
+  // The corners alone (the fill's retry that leaves them out starts from the whole plan): both
+  // pairs stay, the corner's crossings are freed; a plan with no corners has none to lose.
+  const auto no_corners = plan_without_corners(plan);
+  ASSERT_TRUE(no_corners);
+  ASSERT_EQ(no_corners->curves.size(), 2u);
+  EXPECT_TRUE(no_corners->corners.empty());
+  EXPECT_EQ(no_corners->unmatched, (std::vector<std::size_t>{4, 5, 6}));
+  EXPECT_FALSE(plan_without_corners(*no_corners));
 }
 
 // A 45 deg fold across a hole (a chamfer of a CAD part): below the crease angle of 50 deg, but
