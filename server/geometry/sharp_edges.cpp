@@ -694,6 +694,24 @@ class RunCorners {
   //! projection, and the box's corner can fall outside it: couplingdown_sharp #2's top corner).
   bool near_hole(const Vec3& p) const { return (p - centre_).norm() <= rim_radius_; }
 
+  //! Whether the creases of \p run are clean: the other edges at each crossing bend by at most
+  //! kFittedBendOtherRatio of its angle (a CAD part's, not a scan's rough "creases").
+  bool clean(std::span<const std::size_t> run) const {
+    return std::all_of(run.begin(), run.end(), [&](std::size_t i) {
+      const CreaseCrossing& c = plan_.crossings[i];
+      return c.other_bends_deg <= kFittedBendOtherRatio * c.dihedral_deg;
+    });
+  }
+
+  //! Whether the bends of \p run are fitted along clean creases, each traced over
+  //! kFittedBendEdges or more (a scan's rough "creases", traced over an edge or two among other
+  //! bends, have no bend to go by: a bunny slot came out farther).
+  bool bends_are_fitted(std::span<const std::size_t> run) const {
+    return clean(run) && std::all_of(run.begin(), run.end(), [&](std::size_t i) {
+             return plan_.crossings[i].traced_edges >= kFittedBendEdges;
+           });
+  }
+
   //! The run of \p length (1 to the count) crossings from position \p start, modulo the count.
   const Run& at(std::size_t start, std::size_t length) {
     const std::size_t count = crossings_.size();
@@ -735,18 +753,6 @@ class RunCorners {
   bool near_enough(std::span<const std::size_t> run, const Vec3& corner) const {
     return near_hole(corner) ||
            ((corner - centre_).norm() <= kTipReachRimRadii * rim_radius_ && bends_are_fitted(run));
-  }
-
-  //! The bends are fitted along clean creases (a scan's rough "creases", traced over an edge or
-  //! two among other bends, have no bend to go by: a bunny slot came out farther).
-  bool bends_are_fitted(std::span<const std::size_t> run) const {
-    for (const std::size_t i : run) {
-      const CreaseCrossing& c = plan_.crossings[i];
-      if (c.traced_edges < kFittedBendEdges ||
-          c.other_bends_deg > kFittedBendOtherRatio * c.dihedral_deg)
-        return false;
-    }
-    return true;
   }
 
   bool ahead_of_every_crossing(std::span<const std::size_t> run, const Vec3& corner) const {
@@ -1101,16 +1107,32 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
   // fit far better: the creases, bent as fitted, pass at most `two_corner_gain` as far from
   // them as from the single corner (couplingdown_sharp #2: 0.23 of it). Four creases through
   // one point are rarer than two corners of three (a polyhedron's generic vertex).
-  HoleCreasePlan one = plan;
-  const bool single = join_at_corner(one, crossings, line_tolerance, hermite, tolerance) &&
-                      inside_hole(one.corners.back());
-  const double single_distance = single ? farthest_bent_crease(one, crossings, one.corners.back())
-                                        : std::numeric_limits<double>::infinity();
   // Two corners need only lie near the rim's ball (RunCorners), not inside the hole's
   // projection.
   double rim_radius = 0;
   for (const VertexHandle v : hole.loop)
     rim_radius = std::max(rim_radius, (mesh.point(v) - hole.centroid).norm());
+  // The runs' corners, worked out once for every search (the three-corner search's end runs
+  // are the two-corner search's runs; the whole loop is one run).
+  RunCorners runs(plan, crossings, line_tolerance, hole.centroid, rim_radius);
+  HoleCreasePlan one = plan;
+  bool single = join_at_corner(one, crossings, line_tolerance, hermite, tolerance) &&
+                inside_hole(one.corners.back());
+  if (!single) {
+    // A crease that curves into the corner misses it along its tangent line (fandisk: a slot
+    // along a curved ridge up to where it meets two straight ones, the ridge's tangent line 0.11
+    // from the corner, its bent crease 0.004), or the lines meet just outside the hole: the
+    // creases bent as fitted meet there instead (RunCorners), if they are clean (a scan's rough
+    // "creases" took a rocker-arm cut 9.1 -> 12.4 per mille).
+    one = plan;
+    const RunCorners::Run& whole = runs.at(0, crossings.size());
+    if (whole.corner && runs.clean(whole.crossings) && inside_hole(*whole.corner)) {
+      add_corner(one, whole.crossings, *whole.corner, hermite, tolerance);
+      single = true;
+    }
+  }
+  const double single_distance = single ? farthest_bent_crease(one, crossings, one.corners.back())
+                                        : std::numeric_limits<double>::infinity();
   // Each further corner must again bring the creases within `two_corner_gain` of the distance
   // of the best plan with fewer.
   std::optional<HoleCreasePlan> best;
@@ -1119,9 +1141,6 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
     best = std::move(one);
     best_distance = single_distance;
   }
-  // The runs' corners, worked out once for both searches (the three-corner search's end runs
-  // are the two-corner search's runs).
-  RunCorners runs(plan, crossings, line_tolerance, hole.centroid, rim_radius);
   HoleCreasePlan two = plan;
   double two_distance = 0;
   if (crossings.size() >= 4 &&

@@ -1003,6 +1003,64 @@ TEST(HoleCaseQuality, ACurvedCreaseMeetsItsCornerAlongItsBend) {
   EXPECT_LE(1000 * d.max / cut->diagonal, 3.0);
 }
 
+// A slot cut into fandisk along its curved top ridge up to the corner where the ridge meets two
+// straight ones (the faces within 0.076 of the ridge's last 8 points, the crease-slot bench's
+// seed 18 cut 1). The straight ridges leave the rim 0.10 from the corner and point at it; the
+// curved one leaves 0.6 away, and its tangent line misses the corner by 0.11 (over twice the
+// corner tolerance), so the three did not meet and the 3D triangulation spanned the slot (mean 2.7
+// per mille, the ridges up to 9.3 off). Its bent crease, fitted along it at the rim, passes the
+// corner: the single corner is found there (mean 0.03, the ridges within 0.23).
+TEST(HoleCaseQuality, ThreeCreasesMeetWhereTheCurvedOneBendsIn) {
+  const std::vector<Vec3> ridge{Vec3(4.3060, 14.3530, -0.9504), Vec3(4.3785, 14.3569, -0.9283),
+                                Vec3(4.4518, 14.3602, -0.9096), Vec3(4.5260, 14.3629, -0.8942),
+                                Vec3(4.6009, 14.3651, -0.8821), Vec3(4.6764, 14.3666, -0.8735),
+                                Vec3(4.7520, 14.3675, -0.8683), Vec3(4.8279, 14.3678, -0.8666)};
+  const auto cut = fill_one_cut("fandisk.obj", [&](const Vec3& c) {
+    for (std::size_t i = 0; i + 1 < ridge.size(); ++i)
+      if (segment_segment_distance2(c, c, ridge[i], ridge[i + 1]) < 0.076 * 0.076) return true;
+    return false;
+  });
+  ASSERT_TRUE(cut);
+  const HoleFillReport& r = cut->report.holes[0];
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.creases, "3 crease crossings, 3 curves meeting at a corner");
+  const auto patch = face_triangles(cut->mesh, r.new_faces);
+  const SurfaceDistance d = surface_distance(patch, cut->removed, 0.002 * cut->diagonal);
+  ASSERT_TRUE(d.valid);
+  EXPECT_LE(1000 * d.mean / cut->diagonal, 0.5);
+  const SegmentDistance creases =
+      segment_distance(creases_among(cut->removed), patch, 0.002 * cut->diagonal);
+  ASSERT_TRUE(creases.valid);
+  EXPECT_LE(1000 * creases.max / cut->diagonal, 1.0);
+}
+
+// A slot along fandisk's curved valley up to the corner where it meets two straight ridges (the
+// faces within 0.141 of 10 points of the valley, crease-slot bench seed 17 cut 8): the three
+// tangent lines meet, but outside the hole's projection, and the corner was refused (the 3D
+// triangulation spanned the slot, mean 1.7 per mille, a 10.2° triangle). Their bent creases meet
+// inside it (0.08).
+TEST(HoleCaseQuality, ThreeCleanCreasesWhoseLinesMeetOutsideTheHoleMeetAlongTheirBends) {
+  const std::vector<Vec3> valley{Vec3(4.7265, 15.2645, -0.5322), Vec3(4.6253, 15.2632, -0.5393),
+                                 Vec3(4.5247, 15.2612, -0.5511), Vec3(4.4247, 15.2582, -0.5677),
+                                 Vec3(4.3257, 15.2545, -0.5889), Vec3(4.2277, 15.2499, -0.6148),
+                                 Vec3(4.1311, 15.2445, -0.6452), Vec3(4.0362, 15.2384, -0.6801),
+                                 Vec3(3.9430, 15.2315, -0.7195), Vec3(3.8518, 15.2238, -0.7631)};
+  const auto cut = fill_one_cut("fandisk.obj", [&](const Vec3& c) {
+    for (std::size_t i = 0; i + 1 < valley.size(); ++i)
+      if (segment_segment_distance2(c, c, valley[i], valley[i + 1]) < 0.141 * 0.141) return true;
+    return false;
+  });
+  ASSERT_TRUE(cut);
+  const HoleFillReport& r = cut->report.holes[0];
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.creases, "3 crease crossings, 3 curves meeting at a corner");
+  const auto patch = face_triangles(cut->mesh, r.new_faces);
+  const SurfaceDistance d = surface_distance(patch, cut->removed, 0.002 * cut->diagonal);
+  ASSERT_TRUE(d.valid);
+  EXPECT_LE(1000 * d.mean / cut->diagonal, 0.5);
+  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
+}
+
 // A ball cut that takes the whole tip of fandisk's thin wing (ball-cut bench, seed 1 cut 0): the
 // hole is a belt around the wing, over its top, its bottom and its two sides, and the tip's two
 // corners (top and bottom, joined by its vertical edge) stick out of the belt, 1.15 from the
