@@ -535,37 +535,6 @@ double degrees_of_cos(double c) {
   return std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / std::numbers::pi;
 }
 
-//! Median dihedral angle (degrees) of the edges within two rings of the hole's boundary. A CAD
-//! part's neighbourhood is mostly exactly coplanar pairs (median ~0), a scanned or organic
-//! surface bends a little at every edge (median of several degrees on the shared cases).
-double median_dihedral_near(const Mesh& mesh, const Hole& hole, FaceNormals& normals) {
-  std::vector<VertexHandle> ring(hole.loop.begin(), hole.loop.end());
-  LocalSet seen_vertex(8 * ring.size());
-  for (const VertexHandle v : ring) seen_vertex.insert(v.idx());
-  std::size_t begin = 0;
-  for (int r = 0; r < 2; ++r) {
-    const std::size_t end = ring.size();
-    for (std::size_t i = begin; i < end; ++i)
-      for (const VertexHandle w : mesh.vv_range(ring[i]))
-        if (seen_vertex.insert(w.idx())) ring.push_back(w);
-    begin = end;
-  }
-  std::vector<double> cosines;
-  LocalSet seen_edge(4 * ring.size());
-  for (const VertexHandle v : ring)
-    for (const HalfedgeHandle h : mesh.voh_range(v)) {
-      const EdgeHandle e = mesh.edge_handle(h);
-      if (mesh.is_boundary(e) || !seen_edge.insert(e.idx())) continue;
-      cosines.push_back(normals.dihedral_cos(e));
-    }
-  if (cosines.empty()) return 0.0;
-  // The median angle is the median cosine (the angle falls as the cosine rises); with the
-  // descending order below, the element at size/2 is the same one a sort of angles picks.
-  const auto mid = cosines.begin() + static_cast<std::ptrdiff_t>(cosines.size() / 2);
-  std::nth_element(cosines.begin(), mid, cosines.end(), std::greater<>());
-  return degrees_of_cos(*mid);
-}
-
 //! Fraction of the rim's vertices that lie on a plane of the surroundings which reaches across
 //! the hole: the faces around the rim are grouped by plane (normals within half a degree, and
 //! each face's centroid on the group's plane within a thousandth of the hole's size), and a

@@ -1102,11 +1102,7 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                      std::span<const std::size_t> crossings, double line_tolerance,
                      double two_corner_gain, const HermiteOptions& hermite, double tolerance,
                      const std::function<bool(const Vec3&)>& inside_hole) {
-  if (crossings.size() < 3) return false;
-  // Two corners fit more freely (each run's creases only), so they are taken only where they
-  // fit far better: the creases, bent as fitted, pass at most `two_corner_gain` as far from
-  // them as from the single corner (couplingdown_sharp #2: 0.23 of it). Four creases through
-  // one point are rarer than two corners of three (a polyhedron's generic vertex).
+  if (crossings.size() < 2) return false;
   // Two corners need only lie near the rim's ball (RunCorners), not inside the hole's
   // projection.
   double rim_radius = 0;
@@ -1115,6 +1111,31 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
   // The runs' corners, worked out once for every search (the three-corner search's end runs
   // are the two-corner search's runs; the whole loop is one run).
   RunCorners runs(plan, crossings, line_tolerance, hole.centroid, rim_radius);
+  if (crossings.size() == 2) {
+    // Two creases left over that no pair joins (a valley that ends at a ridge, fandisk crease
+    // slot s9c4 hole 299) meet at a corner of their own if they are clean, their bent creases
+    // meet inside the hole within the tolerance, and the corner is not on the rim (half a mean
+    // rim edge from either crossing: there the creases end at a corner on the rim, and the
+    // curve to the corner would be a sliver, 0.2°), on a CAD part's surroundings (median
+    // dihedral under 1°, FillOptions::piecewise_planar_median_deg's default: a hand scan's
+    // finger gaps took such corners and came out farther, 3.6 -> 7.6 per mille).
+    const RunCorners::Run& both = runs.at(0, 2);
+    if (!both.corner || !runs.bends_are_fitted(both.crossings) || !inside_hole(*both.corner) ||
+        both.farthest > line_tolerance)
+      return false;
+    const double half_edge = 0.5 * hole.perimeter / static_cast<double>(hole.loop.size());
+    for (const std::size_t i : both.crossings)
+      if ((*both.corner - plan.crossings[i].position).norm() < half_edge) return false;
+    constexpr double kMaxMedianDihedralDeg = 1.0;
+    FaceNormals normals(mesh, 16 * hole.loop.size());
+    if (!(median_dihedral_near(mesh, hole, normals) < kMaxMedianDihedralDeg)) return false;
+    add_corner(plan, both.crossings, *both.corner, hermite, tolerance);
+    return true;
+  }
+  // Two corners fit more freely (each run's creases only), so they are taken only where they
+  // fit far better: the creases, bent as fitted, pass at most `two_corner_gain` as far from
+  // them as from the single corner (couplingdown_sharp #2: 0.23 of it). Four creases through
+  // one point are rarer than two corners of three (a polyhedron's generic vertex).
   HoleCreasePlan one = plan;
   bool single = join_at_corner(one, crossings, line_tolerance, hermite, tolerance) &&
                 inside_hole(one.corners.back());
@@ -1656,9 +1677,42 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
         end_at_rim_corners(plan, normals, hole, left, SharpAngle(options.crease_angle_deg),
                            options.corner_tolerance * diameter, options.rim_corner_angle_deg * kDeg,
                            fit_length, options.hermite, tolerance);
+  // Two creases left over that end at no corner on the rim may meet inside the hole.
+  if (left.size() == 2 && plan.corners.empty() &&
+      join_at_corners(plan, mesh, hole, left, options.corner_tolerance * diameter,
+                      options.two_corner_gain, options.hermite, tolerance, inside_hole))
+    left.clear();
   plan.unmatched = left;
   plan.summary = plan_summary(plan);
   return plan;
+}
+
+double median_dihedral_near(const Mesh& mesh, const Hole& hole, FaceNormals& normals) {
+  std::vector<VertexHandle> ring(hole.loop.begin(), hole.loop.end());
+  LocalSet seen_vertex(8 * ring.size());
+  for (const VertexHandle v : ring) seen_vertex.insert(v.idx());
+  std::size_t begin = 0;
+  for (int r = 0; r < 2; ++r) {
+    const std::size_t end = ring.size();
+    for (std::size_t i = begin; i < end; ++i)
+      for (const VertexHandle w : mesh.vv_range(ring[i]))
+        if (seen_vertex.insert(w.idx())) ring.push_back(w);
+    begin = end;
+  }
+  std::vector<double> cosines;
+  LocalSet seen_edge(4 * ring.size());
+  for (const VertexHandle v : ring)
+    for (const HalfedgeHandle h : mesh.voh_range(v)) {
+      const EdgeHandle e = mesh.edge_handle(h);
+      if (mesh.is_boundary(e) || !seen_edge.insert(e.idx())) continue;
+      cosines.push_back(normals.dihedral_cos(e));
+    }
+  if (cosines.empty()) return 0.0;
+  // The median angle is the median cosine (the angle falls as the cosine rises); with the
+  // descending order below, the element at size/2 is the same one a sort of angles picks.
+  const auto mid = cosines.begin() + static_cast<std::ptrdiff_t>(cosines.size() / 2);
+  std::nth_element(cosines.begin(), mid, cosines.end(), std::greater<>());
+  return std::acos(std::clamp(*mid, -1.0, 1.0)) * 180.0 / std::numbers::pi;
 }
 
 std::string meeting_at_corners(std::size_t corners) {

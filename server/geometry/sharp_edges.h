@@ -205,6 +205,13 @@ inline std::size_t curve_count(const HoleCreasePlan& plan) {
   return plan.curves.size() + plan.corner_links.size();
 }
 
+class FaceNormals;
+
+//! Median dihedral angle (degrees) of the edges within two rings of the hole's boundary. A CAD
+//! part's neighbourhood is mostly exactly coplanar pairs (median ~0), a scanned or organic
+//! surface bends a little at every edge (median of several degrees on the shared cases).
+double median_dihedral_near(const Mesh& mesh, const Hole& hole, FaceNormals& normals);
+
 //! The plan with one curve taken out, for a crease split that could not be made with them all.
 //! Where its patch went wrong (\p failed_at: a point of a face that crossed the mesh, or of a
 //! triangle that could not be linked into it), the curve nearest that point: the split's trouble
@@ -229,13 +236,14 @@ std::optional<HoleCreasePlan> plan_without_corners(const HoleCreasePlan& plan);
 bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings,
                     double line_tolerance, const HermiteOptions& hermite, double tolerance);
 
-//! Joins the creases of \p crossings (three or more) inside the hole: at one corner
-//! (join_at_corner, which must satisfy \p inside_hole) or, four or more, at two corners joined
-//! by a straight crease, or, five or more, at three in a row joined by two; each run of creases
-//! contiguous along the loop, its corner where the creases continued with their fitted bend
-//! come closest (the middle one of three also nearest the two links). Each further corner is
-//! taken when the creases pass within \p two_corner_gain of the best plan with fewer. Returns
-//! false, \p plan unchanged, when none qualifies.
+//! Joins the creases of \p crossings (two or more) inside the hole: two clean ones at a corner
+//! where their bent creases meet, off the rim; three or more at one corner (join_at_corner, or
+//! where their clean bent creases meet; it must satisfy \p inside_hole) or, four or more, at
+//! two corners joined by a straight crease, or, five or more, at three in a row joined by two;
+//! each run of creases contiguous along the loop, its corner where the creases continued with
+//! their fitted bend come closest (the middle one of three also nearest the two links). Each
+//! further corner is taken when the creases pass within \p two_corner_gain of the best plan with
+//! fewer. Returns false, \p plan unchanged, when none qualifies.
 bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                      std::span<const std::size_t> crossings, double line_tolerance,
                      double two_corner_gain, const HermiteOptions& hermite, double tolerance,

@@ -432,11 +432,13 @@ TEST(FillHole, ACreaseSplitThatCannotBeMadeIsTriedAgainWithFewerCurves) {
 }
 
 // Five balls cut out of fandisk (touchmend-cut-bench --only fandisk.obj:1:9) leave a 68-edge
-// hole that three creases cross. One of them runs within a mean edge of the rim, and the strip
-// between them folds: every split along it crosses the mesh. The curve left out is the one
-// nearest the crossing, so the split along the other two is made (20°, 1.4‰ of the diagonal
-// from the removed faces); taking out the least certain pairs instead kept the troublesome one
-// to the end, and the hole went to the 3D triangulation (2.0°, 7.3‰).
+// hole with eight crease crossings. One of its creases runs within a mean edge of the rim, and
+// the strip between them folds: every split along it crosses the mesh. The curve left out is
+// the one nearest the crossing, so the split along the others is made (20°, 1.4‰ of the
+// diagonal from the removed faces); taking out the least certain pairs instead kept the
+// troublesome one to the end, and the hole went to the 3D triangulation (2.0°, 7.3‰). Since two
+// creases left over may meet at a corner of their own (2026-11-27) the plan has five curves,
+// and the split along four of them is 0.44‰ off, 17.1°.
 TEST(FillHole, ACreaseSplitRetryLeavesOutTheCurveNearestWhereItCrossedTheMesh) {
   const std::array<std::pair<Vec3, double>, 5> balls{
       {{Vec3(0.651222, 15.0116, -2.64694), 1.0961208},
@@ -448,11 +450,11 @@ TEST(FillHole, ACreaseSplitRetryLeavesOutTheCurveNearestWhereItCrossedTheMesh) {
   const MeshSoup cut = cut_shared_mesh("fandisk.obj", balls, &truth);
   const auto hole_175 = [](const Hole& h) { return h.id == 175 && h.loop.size() == 68; };
   const FillRun run = fill_and_check(cut, {}, hole_175);
-  ASSERT_NO_FATAL_FAILURE(expect_split_along_fewer_curves(run, 2, 3));
+  ASSERT_NO_FATAL_FAILURE(expect_split_along_fewer_curves(run, 4, 5));
   const HoleFillReport& r = run.reports[0];
   EXPECT_GE(r.min_angle_deg, 15.0);
   const double diagonal = 7.6156;  // fandisk's bounding-box diagonal (rounded)
-  EXPECT_LT(mean_distance_to(run, r, truth, diagonal), 0.003);
+  EXPECT_LT(mean_distance_to(run, r, truth, diagonal), 0.001);
 }
 
 TEST(FillHole, HoleAcrossACubeEdgeFollowsTheCrease) {
