@@ -1027,6 +1027,18 @@ TEST(HoleCaseQuality, ACurvedCreaseMeetsItsCornerAlongItsBend) {
   EXPECT_LE(1000 * d.max / cut->diagonal, 3.0);
 }
 
+//! fill_slot_cut of fandisk along \p path: the hole is split along its creases as \p plan says
+//! (the report's crease summary).
+std::optional<CutFill> fandisk_slot_split(const std::vector<Vec3>& path, double radius,
+                                          std::string_view plan) {
+  auto cut = fill_slot_cut("fandisk.obj", path, radius);
+  if (!cut) return cut;
+  const HoleFillReport& r = cut->report.holes[0];
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.creases, plan);
+  return cut;
+}
+
 // A slot cut into fandisk along its curved top ridge up to the corner where the ridge meets two
 // straight ones (the faces within 0.076 of the ridge's last 8 points, the crease-slot bench's
 // seed 18 cut 1). The straight ridges leave the rim 0.10 from the corner and point at it; the
@@ -1039,11 +1051,9 @@ TEST(HoleCaseQuality, ThreeCreasesMeetWhereTheCurvedOneBendsIn) {
                                 Vec3(4.4518, 14.3602, -0.9096), Vec3(4.5260, 14.3629, -0.8942),
                                 Vec3(4.6009, 14.3651, -0.8821), Vec3(4.6764, 14.3666, -0.8735),
                                 Vec3(4.7520, 14.3675, -0.8683), Vec3(4.8279, 14.3678, -0.8666)};
-  const auto cut = fill_slot_cut("fandisk.obj", ridge, 0.076);
+  const auto cut =
+      fandisk_slot_split(ridge, 0.076, "3 crease crossings, 3 curves meeting at a corner");
   ASSERT_TRUE(cut);
-  const HoleFillReport& r = cut->report.holes[0];
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_EQ(r.creases, "3 crease crossings, 3 curves meeting at a corner");
   const PatchDistances d = patch_distances(*cut);
   EXPECT_LE(d.mean, 0.5);
   EXPECT_LE(d.crease, 1.0);
@@ -1060,13 +1070,11 @@ TEST(HoleCaseQuality, ThreeCleanCreasesWhoseLinesMeetOutsideTheHoleMeetAlongThei
                                  Vec3(4.3257, 15.2545, -0.5889), Vec3(4.2277, 15.2499, -0.6148),
                                  Vec3(4.1311, 15.2445, -0.6452), Vec3(4.0362, 15.2384, -0.6801),
                                  Vec3(3.9430, 15.2315, -0.7195), Vec3(3.8518, 15.2238, -0.7631)};
-  const auto cut = fill_slot_cut("fandisk.obj", valley, 0.141);
+  const auto cut =
+      fandisk_slot_split(valley, 0.141, "3 crease crossings, 3 curves meeting at a corner");
   ASSERT_TRUE(cut);
-  const HoleFillReport& r = cut->report.holes[0];
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_EQ(r.creases, "3 crease crossings, 3 curves meeting at a corner");
   EXPECT_LE(patch_distances(*cut).mean, 0.5);
-  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
+  EXPECT_GE(min_angle_deg(cut->mesh, cut->report.holes[0].new_faces), 15.0);
 }
 
 // A slot along fandisk's curved valley (the faces within 0.135 of 18 of its points, the
@@ -1085,11 +1093,9 @@ TEST(HoleCaseQuality, TwoCleanCreasesLeftOverMeetAtACornerOfTheirOwn) {
                                  Vec3(3.1088, 15.5291, -0.8168), Vec3(3.0402, 15.5178, -0.8805),
                                  Vec3(2.9741, 15.5062, -0.9466), Vec3(2.9106, 15.4942, -1.0149),
                                  Vec3(2.8495, 15.4817, -1.0857), Vec3(2.7909, 15.4688, -1.1589)};
-  const auto cut = fill_slot_cut("fandisk.obj", valley, 0.135);
+  const auto cut =
+      fandisk_slot_split(valley, 0.135, "2 crease crossings, 2 curves meeting at a corner");
   ASSERT_TRUE(cut);
-  const HoleFillReport& r = cut->report.holes[0];
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_EQ(r.creases, "2 crease crossings, 2 curves meeting at a corner");
   const PatchDistances d = patch_distances(*cut);
   EXPECT_LE(d.mean, 0.5);
   EXPECT_LE(d.crease, 3.0);
