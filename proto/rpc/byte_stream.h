@@ -9,6 +9,7 @@
 
 #include <boost/asio.hpp>
 #include <boost/asio/ssl.hpp>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -80,8 +81,14 @@ class ByteStream {
   std::unique_ptr<asio::ssl::stream<tcp::socket>> tls_;
 };
 
+//! How long sent data may stay unacknowledged before the kernel gives up on the peer, unless
+//! the caller asks for longer.
+inline constexpr std::chrono::milliseconds kDefaultUserTimeout{30'000};
+
 //! TCP_NODELAY (SERVICE.md §1.3: Nagle costs 1 ms p50 and 40 ms stalls at 1 kHz) and
-//! TCP_USER_TIMEOUT (a dead peer is noticed in 30 s instead of Linux's 15+ minutes).
-void tune_socket(tcp::socket& socket);
+//! TCP_USER_TIMEOUT \p user_timeout (a dead peer is noticed in 30 s instead of Linux's 15+
+//! minutes). The kernel counts a peer that stops reading (a zero window) against it too: it
+//! resets the connection once the window has stayed shut that long.
+void tune_socket(tcp::socket& socket, std::chrono::milliseconds user_timeout = kDefaultUserTimeout);
 
 }  // namespace touchmend::rpc

@@ -107,7 +107,12 @@ Connection::Connection(std::uint64_t id, rpc::ByteStream stream, const Connectio
 
 void Connection::start() {
   asio::dispatch(strand_, [self = shared_from_this()] {
-    rpc::tune_socket(self->stream_.socket());
+    // A peer that stops reading is the slow-consumer policy's (the queue limits) and the
+    // keepalive's to drop: the kernel's own limit on a shut window is made no shorter than the
+    // keepalive timeout (a raw subscriber in the service test, not reading for 30 s under ASan
+    // and load, had its connection reset by the kernel while the server meant to keep it).
+    rpc::tune_socket(self->stream_.socket(),
+                     std::max(self->limits_.keepalive_timeout, rpc::kDefaultUserTimeout));
     if (self->limits_.socket_send_buffer_bytes > 0) {
       rpc::error_code ignored;
       self->stream_.socket().set_option(asio::socket_base::send_buffer_size(static_cast<int>(
