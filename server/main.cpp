@@ -149,7 +149,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(100, 600000));
   app.add_option("--keepalive-timeout-ms", keepalive_timeout_ms,
-                 "Close a connection silent for this long")
+                 "Close a connection silent for this long (one that stops reading is given "
+                 "as long, and at least 30 s)")
       ->capture_default_str()
       ->check(CLI::Range(500, 3600000));
   app.add_option("--port-file", port_file,
