@@ -113,8 +113,8 @@ struct CreaseCrossing {
   //! its osculating circle), fitted nearer the rim than `inward` (kCurvatureFitShare of it).
   Vec3 curvature{0, 0, 0};
   //! The inward tangent of the same fit as `curvature` (nearer the rim than `inward`): the crease
-  //! continued into the hole as p + s·t + ½s²κ (a piece of an arc: the arc's tangent). Zero
-  //! where the crossing has no fit (`inward` is used then).
+  //! continued into the hole along its osculating circle starts along it. Zero where the
+  //! crossing has no fit (`inward` is used then).
   Vec3 bend_inward{0, 0, 0};
   //! The crease's first points from the rim (position first) over which the curvature was
   //! fitted: a circular arc through two crossings is fitted to both ends' points.
@@ -266,7 +266,8 @@ std::optional<Vec3> crease_tangent_towards(const Mesh& mesh, VertexHandle at, co
 struct CreaseShape {
   Vec3 tangent{0, 0, 0};    //!< unit, from the rim along the crease towards the pick
   Vec3 curvature{0, 0, 0};  //!< κ·N at the rim
-  //! The tangent of the same short fit as `curvature`: with it, the crease's parabola at the rim.
+  //! The tangent of the same short fit as `curvature`: with it, the crease's osculating circle at
+  //! the rim.
   Vec3 bend_tangent{0, 0, 0};
   std::vector<Vec3> near_rim;  //!< the crease's first points from the rim (rim first)
   //! Rim edges the crease runs along before it reaches the vertex (0: it leaves it directly).

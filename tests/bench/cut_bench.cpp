@@ -388,10 +388,12 @@ int main(int argc, char** argv) {
           for (const auto& [centre, radius] : spheres)
             fmt::print("ball centre ({:.9g}, {:.9g}, {:.9g}) radius {:.9g}\n", centre[0], centre[1],
                        centre[2], radius);
-          for (const auto& [run, radius] : slots)
-            fmt::print(
-                "slot of radius {:.9g} along {} crease points from ({:.9g}, {:.9g}, {:.9g})\n",
-                radius, run.size(), run.front()[0], run.front()[1], run.front()[2]);
+          for (const auto& [run, radius] : slots) {
+            fmt::print("slot of radius {:.9g} along {} crease points:", radius, run.size());
+            for (const geo::Vec3& p : run)
+              fmt::print(" ({:.9g}, {:.9g}, {:.9g})", p[0], p[1], p[2]);
+            fmt::print("\n");
+          }
         }
         const auto in_cut = [&](const geo::Vec3& c) {
           return std::any_of(spheres.begin(), spheres.end(),

@@ -1059,6 +1059,33 @@ TEST(HoleCaseQuality, ThreeCreasesMeetWhereTheCurvedOneBendsIn) {
   EXPECT_LE(d.crease, 1.0);
 }
 
+// A slot along fandisk's curved top edge (radius 1.03) to its end, where it meets two straight
+// edges at a corner of the symmetry plane (the faces within 0.0997 of 15 of its points,
+// crease-slot bench seed 19 cut 7). The curved crease leaves the rim 1.4 from the corner and
+// turns 75° on the way: continued as a parabola p + s·t + ½s²κ of its fitted bend it missed the
+// corner by 0.26, so the three creases went unmatched and the 3D triangulation spanned the slot
+// (mean 2.9 per mille, a 4.6° triangle). As its osculating circle it passes 0.02 from the corner
+// (mean 0.55).
+TEST(HoleCaseQuality, ACreaseThatTurnsFarMeetsItsCornerAlongItsCircle) {
+  const std::vector<Vec3> edge{Vec3(1.21071, 13.9407, -2.45813),  Vec3(1.16039, 14.0236, -2.47273),
+                               Vec3(1.10208, 14.1011, -2.48641),  Vec3(1.0365, 14.1726, -2.49901),
+                               Vec3(0.963959, 14.2375, -2.51045), Vec3(0.885537, 14.295, -2.52059),
+                               Vec3(0.801544, 14.3447, -2.52936), Vec3(0.712934, 14.3862, -2.53668),
+                               Vec3(0.620725, 14.419, -2.54245),  Vec3(0.525907, 14.4425, -2.54661),
+                               Vec3(0.429066, 14.4569, -2.54914), Vec3(0.3285, 14.4619, -2.55002),
+                               Vec3(0.219, 14.4619, -2.55002),    Vec3(0.1095, 14.4619, -2.55002),
+                               Vec3(0, 14.4619, -2.55002)};
+  const auto cut =
+      fandisk_slot_split(edge, 0.0996579402, "3 crease crossings, 3 curves meeting at a corner");
+  ASSERT_TRUE(cut);
+  const PatchDistances d = patch_distances(*cut);
+  EXPECT_LE(d.mean, 0.6);
+  // The corner lands 0.01 from the true one; the curved edge, a circle only near the rim, is
+  // followed within 4.2 per mille.
+  EXPECT_LE(d.crease, 4.5);
+  EXPECT_GE(min_angle_deg(cut->mesh, cut->report.holes[0].new_faces), 15.0);
+}
+
 // A slot along fandisk's curved valley up to the corner where it meets two straight ridges (the
 // faces within 0.141 of 10 points of the valley, crease-slot bench seed 17 cut 8): the three
 // tangent lines meet, but outside the hole's projection, and the corner was refused (the 3D
@@ -1270,6 +1297,25 @@ TEST(HoleCasesRandom, LeavingTheCornersOutBringsBackThePairsLeftOutBefore) {
         << r.shape_reason;
   }
   EXPECT_TRUE(found);
+}
+
+// A slot along the rim of couplingdown's top boss where it meets a small tooth (the faces within
+// 0.0229 of 6 points of the rim, crease-slot bench seed 14 cut 7): eight creases cross the
+// hole, and the plan joins two pairs and the tooth's four short creases at two corners. That
+// split cannot be linked into the mesh, nor the two with one curve less each (their patches
+// cross the mesh); the third retry, along the one pair left, can. With two retries the 3D
+// triangulation spanned the slot (mean 0.69 per mille against 0.003).
+TEST(HoleCaseQuality, AThirdCreaseSplitRetryKeepsTheOnePairLeft) {
+  const std::vector<Vec3> rim{
+      Vec3(-0.087889, 0.357273, 0.157233),   Vec3(-0.0478455, 0.3648, 0.157233),
+      Vec3(-0.00721597, 0.367854, 0.157233), Vec3(0.0335014, 0.366396, 0.157233),
+      Vec3(0.073807, 0.360445, 0.157233),    Vec3(0.113208, 0.350075, 0.157233)};
+  const auto cut = fill_slot_cut("couplingdown.off", rim, 0.0228578826);
+  ASSERT_TRUE(cut);
+  const HoleFillReport& r = cut->report.holes[0];
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.creases, "8 crease crossings, 1 curves, 6 unmatched");
+  EXPECT_LE(patch_distances(*cut).mean, 0.05);
 }
 
 // Four balls cut out of sphere966 (one of the overlapping-ball cuts, seed 1) leave a hole

@@ -179,9 +179,9 @@ TEST(SharpEdges, CreaseEndingAtACornerOnTheRimIsSplitAlong) {
   EXPECT_GE(r.min_angle_deg, 15.0);
 }
 
-// Four bent creases (parabolas p + s·t + ½s²κ, as the plan continues them) that meet in pairs,
-// 20° apart, at two points: the two-corner plan puts its corners exactly there, not at one
-// corner of all four. From the tangent lines' meeting point (about 0.2 off) Gauss-Newton steps
+// Four bent creases (circles from p along t with curvature κ, as the plan continues them) that meet
+// in pairs, 20° apart, at two points: the two-corner plan puts its corners exactly there, not at
+// one corner of all four. From the tangent lines' meeting point (about 0.2 off) Gauss-Newton steps
 // get there in a few rounds; alternating projections, at this angle, are still 5e-4 to 7e-4 off
 // after their 100.
 TEST(SharpEdges, BentCreasesMeetingInPairsGetTheirTwoCornersExactly) {
@@ -196,11 +196,15 @@ TEST(SharpEdges, BentCreasesMeetingInPairsGetTheirTwoCornersExactly) {
   // plane of its tangent and the z axis.
   const auto add = [&](const Vec3& corner, Vec3 tangent, const Vec3& bend, double length) {
     tangent.normalize();
-    Vec3 curvature = bend - OpenMesh::dot(bend, tangent) * tangent;
-    curvature *= 0.1 / curvature.norm();
+    Vec3 towards_centre = bend - OpenMesh::dot(bend, tangent) * tangent;
+    towards_centre.normalize();
+    const double kappa = 0.1;
+    const Vec3 curvature = kappa * towards_centre;
     CreaseCrossing c;
     c.loop_index = plan.crossings.size();
-    c.position = corner - length * tangent - 0.5 * length * length * curvature;
+    // The circle's point at arc length `length` is the corner.
+    c.position = corner - std::sin(kappa * length) / kappa * tangent -
+                 (1 - std::cos(kappa * length)) / kappa * towards_centre;
     c.inward = c.bend_inward = tangent;
     c.curvature = curvature;
     c.far_point = c.position - tangent;
