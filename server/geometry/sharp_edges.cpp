@@ -543,7 +543,10 @@ CurveProjection project_on_bent_crease(const CreaseCrossing& c, const Vec3& x) {
   const double half_sine = std::sin(0.5 * turn);
   const Vec3 point = c.position + radius * std::sin(turn) * t +
                      2.0 * radius * half_sine * half_sine * towards_centre;  // 1 - cos = 2 sin²
-  const Vec3 slide = std::cos(turn) * t + std::sin(turn) * towards_centre;
+  // Held at the arc's end, as at its start: a point beyond either moves its projection nowhere.
+  const Vec3 slide = angle < kMaxBentCreaseTurn
+                         ? std::cos(turn) * t + std::sin(turn) * towards_centre
+                         : Vec3(0, 0, 0);
   return {point, slide};
 }
 
