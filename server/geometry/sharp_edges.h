@@ -125,6 +125,9 @@ struct CreaseCrossing {
   Vec3 on_crease{0, 0, 0};
   double dihedral_deg = 0;  //!< at the sharp edge leaving the boundary vertex
   bool convex = false;      //!< the two faces fold away from each other (a ridge)
+  //! Unit normals of the two faces of that sharp edge (zero where unknown): the surfaces the
+  //! crease parts, whatever the rim's triangles beside its vertex belong to.
+  std::array<Vec3, 2> faces{Vec3(0, 0, 0), Vec3(0, 0, 0)};
   //! The largest bend of the other edges at the boundary vertex (degrees; rim edges excluded).
   double other_bends_deg = 0;
   std::size_t traced_edges = 0;

@@ -1128,6 +1128,24 @@ TEST(HoleCaseQuality, TwoCleanCreasesLeftOverMeetAtACornerOfTheirOwn) {
   EXPECT_LE(d.crease, 3.0);
 }
 
+// A ball cut into fandisk across the end of its side plane (ball-cut bench seed 4 cut 0): six
+// creases cross the hole and meet at three corners in a row, A - B - C, all on the side plane.
+// C is a corner of three faces (the side plane and two curved ones) and its link to B is the
+// edge of the side plane and the upper curved face. That link was taken from the rim triangles
+// just outside C's creases, but the one after the side plane's crease still belongs to the
+// lower curved face (it reaches past the crease's rim vertex): the link pointed across the part,
+// B was refused as lying behind it, and the 3D triangulation spanned the hole (17.3 per mille
+// mean). From the creases' own faces the link runs up the side plane.
+TEST(HoleCaseQuality, ACornerLinkLeavesAlongTheFacesOfItsCreases) {
+  const auto cut = fill_one_cut("fandisk.obj", Vec3(4.53432, 13.9805, -0.328044), 1.00622902);
+  ASSERT_TRUE(cut);
+  const HoleFillReport& r = cut->report.holes[0];
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.creases, "6 crease crossings, 8 curves meeting at 3 corners");
+  EXPECT_LE(patch_distances(*cut).mean, 1.5);
+  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
+}
+
 // A ball cut that takes the whole tip of fandisk's thin wing (ball-cut bench, seed 1 cut 0): the
 // hole is a belt around the wing, over its top, its bottom and its two sides, and the tip's two
 // corners (top and bottom, joined by its vertical edge) stick out of the belt, 1.15 from the
