@@ -881,8 +881,6 @@ std::optional<Vec3> edge_of_outer_faces(const Mesh& mesh, const Hole& hole,
                                         const HoleCreasePlan& plan,
                                         std::span<const std::size_t> run, const Vec3& corner,
                                         const Vec3& towards) {
-  Vec3 behind = rim_face_normal(mesh, hole, plan.crossings[run.front()].loop_index, false);
-  Vec3 ahead = rim_face_normal(mesh, hole, plan.crossings[run.back()].loop_index, true);
   // The outer face of an end crease is the one of its two faces that its neighbour in the run
   // does not share (the pair of faces, one from each, that lie closest is the shared one).
   const auto outer_face = [&](std::size_t end, std::size_t neighbour) -> std::optional<Vec3> {
@@ -901,15 +899,16 @@ std::optional<Vec3> edge_of_outer_faces(const Mesh& mesh, const Hole& hole,
         }
     return a.faces[1 - shared];
   };
+  std::optional<Vec3> behind, ahead;
   if (run.size() >= 2) {
-    const auto first = outer_face(run.front(), run[1]);
-    const auto last = outer_face(run.back(), run[run.size() - 2]);
-    if (first && last) {
-      behind = *first;
-      ahead = *last;
-    }
+    behind = outer_face(run.front(), run[1]);
+    ahead = outer_face(run.back(), run[run.size() - 2]);
   }
-  Vec3 edge = OpenMesh::cross(behind, ahead);
+  if (!behind || !ahead) {
+    behind = rim_face_normal(mesh, hole, plan.crossings[run.front()].loop_index, false);
+    ahead = rim_face_normal(mesh, hole, plan.crossings[run.back()].loop_index, true);
+  }
+  Vec3 edge = OpenMesh::cross(*behind, *ahead);
   constexpr double kMinSine = 0.17;  // the faces differ by at least 10°
   if (!(edge.norm() >= kMinSine)) return std::nullopt;
   edge.normalize();
