@@ -106,7 +106,8 @@ struct FillOptions {
   //! certain: plan_without_weakest_curve), at most this many times, before the whole-hole
   //! methods. 0: the whole plan or nothing. Three: on a couplingdown slot (crease-slot bench
   //! seed 14 cut 7) the whole plan and the first two retries could not be made, the third, one
-  //! pair, could (mean 0.69 -> 0.003 per mille).
+  //! pair, could (mean 0.69 -> 0.003 per mille); since its tooth's corner on the rim is taken as
+  //! that rim vertex (join_at_corners), the second retry, the two pairs, makes it.
   int crease_split_retries = 3;
   //! Curves given by the caller (picked points) instead of detected ones: used by the
   //! CreaseSplit method whatever `sharp` says.

@@ -246,7 +246,10 @@ bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings
 //! each run of creases contiguous along the loop, its corner where the creases continued with
 //! their fitted bend come closest (the middle one of three also nearest the two links). Each
 //! further corner is taken when the creases pass within \p two_corner_gain of the best plan with
-//! fewer. Returns false, \p plan unchanged, when none qualifies.
+//! fewer. A corner that falls within a quarter of a mean rim edge of one of its crossings is on
+//! the rim (the cut went through the part's corner): the other creases end at that crossing's
+//! vertex, and a link from it to another corner leaves from there (no corner is added for it).
+//! Returns false, \p plan unchanged, when none qualifies.
 bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                      std::span<const std::size_t> crossings, double line_tolerance,
                      double two_corner_gain, const HermiteOptions& hermite, double tolerance,

@@ -458,6 +458,40 @@ TEST(CurveSplit, ChordSplitsASquareIntoTwoRegions) {
   }
 }
 
+TEST(CurveSplit, ARimVertexWithCurvesToTheRimAndToACornerOrdersThemByTheLoop) {
+  // The square of 8 boundary vertices, a corner at (1, 1.5) reached from vertices 4 and 6, and
+  // vertex 1 with two curves: up to the corner and up-left to vertex 7 (a corner on the rim that
+  // move_corner_to_rim turned into vertex 1: one crease ends there, its link leaves to the
+  // other corner). Around vertex 1 the curve to the corner comes first from vertex 2 (the
+  // corner's rim ends, 4 and 6, are nearer along the loop than 7): four regions, a manifold disk.
+  const std::vector<Vec3> loop{{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 1, 0},
+                               {2, 2, 0}, {1, 2, 0}, {0, 2, 0}, {0, 1, 0}};
+  std::vector<Vec3> opposite;
+  for (std::size_t i = 0; i < loop.size(); ++i)
+    opposite.push_back(0.5 * (loop[i] + loop[(i + 1) % loop.size()]) + Vec3(0, 0, -1));
+  CurveSplitInput in;
+  in.loop = loop;
+  in.opposite = opposite;
+  in.corners = {Vec3(1, 1.5, 0)};
+  in.curves = {{4, -1, {}}, {6, -1, {}}, {1, -1, {Vec3(1, 0.75, 0)}}, {1, 7, {}}};
+  const CurveSplitTriangulation t = triangulate_along_curves(in);
+  ASSERT_TRUE(t.ok) << t.failure;
+  EXPECT_EQ(t.pieces, 4u);
+  std::map<std::pair<int, int>, int> uses;
+  for (const auto& tri : t.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = tri[static_cast<std::size_t>(k)],
+                b = tri[static_cast<std::size_t>((k + 1) % 3)];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  for (const auto& [a, b] : t.curve_edges) EXPECT_EQ((uses[{std::min(a, b), std::max(a, b)}]), 2);
+  for (const auto& [edge, count] : uses) {
+    const bool loop_edge =
+        edge.second < 8 && (edge.second - edge.first == 1 || (edge.first == 0 && edge.second == 7));
+    EXPECT_EQ(count, loop_edge ? 1 : 2) << edge.first << "-" << edge.second;
+  }
+}
+
 TEST(CurveSplit, RejectsCurvesThatDoNotEndOnTheLoop) {
   const std::vector<Vec3> loop{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
   const std::vector<Vec3> opposite(4, Vec3(0.5, 0.5, -1));
