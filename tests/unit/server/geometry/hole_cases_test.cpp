@@ -1163,6 +1163,23 @@ TEST(HoleCaseQuality, OfTwoCornersTheOneOnTheRimIsItsVertex) {
   EXPECT_LE(d.crease, 1.0);
 }
 
+// A slot along the start of the rim of couplingdown's small boss (the faces within 0.0157 of
+// its first 4 points, as the crease-slot bench's seed 14 cut 2 takes them). Two creases of the
+// boss run along rim edges: a pair's curve joined two neighbouring rim vertices, sampled a hair
+// off their edge (0.0004 off a 0.041 edge), and the region between the curve and the edge was a
+// 3.2° sliver with both its sides fixed. Such a curve is the edge: 15° or better.
+TEST(HoleCaseQuality, ACreaseAlongARimEdgeLeavesNoSliver) {
+  const std::vector<Vec3> rim{
+      Vec3(0.00600464, -0.384173, 0.157233), Vec3(0.0172957, -0.388282, 0.157233),
+      Vec3(0.0264971, -0.396003, 0.157233), Vec3(0.0325052, -0.406409, 0.157233)};
+  const auto cut = fill_slot_cut("couplingdown.off", rim, 0.0156543486);
+  ASSERT_TRUE(cut);
+  const HoleFillReport& r = cut->report.holes[0];
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0) << r.creases;
+  EXPECT_LE(patch_distances(*cut).mean, 0.05);
+}
+
 // A ball cut into fandisk across the end of its side plane (ball-cut bench seed 4 cut 0): six
 // creases cross the hole and meet at three corners in a row, A - B - C, all on the side plane.
 // C is a corner of three faces (the side plane and two curved ones) and its link to B is the

@@ -520,6 +520,27 @@ TEST(CurveSplit, CurveAlongABoundaryEdgeAddsNothing) {
   EXPECT_TRUE(t.curve_edges.empty());
 }
 
+TEST(CurveSplit, CurveHuggingABoundaryEdgeIsThatEdge) {
+  // A crease between neighbouring boundary vertices sampled a hair off their edge (a pair along
+  // a boss's rim): the region between would be a sliver with both sides fixed. Within a tenth of
+  // the edge's length it is the edge, and the hole is one region; bowed farther it is kept.
+  const std::vector<Vec3> loop{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  const std::vector<Vec3> opposite(4, Vec3(0.5, 0.5, -1));
+  CurveSplitInput in;
+  in.loop = loop;
+  in.opposite = opposite;
+  in.curves = {{0, 1, {Vec3(0.5, 0.01, 0)}}};
+  const CurveSplitTriangulation hugging = triangulate_along_curves(in);
+  ASSERT_TRUE(hugging.ok) << hugging.failure;
+  EXPECT_EQ(hugging.pieces, 1u);
+  EXPECT_TRUE(hugging.curve_edges.empty());
+  in.curves = {{0, 1, {Vec3(0.5, 0.3, 0)}}};
+  const CurveSplitTriangulation bowed = triangulate_along_curves(in);
+  ASSERT_TRUE(bowed.ok) << bowed.failure;
+  EXPECT_EQ(bowed.pieces, 2u);
+  EXPECT_EQ(bowed.curve_edges.size(), 2u);
+}
+
 TEST(CurveSplit, CurvePassingByABoundaryVertexIsCutThere) {
   // A hexagon split by a curve 0 -> 3 whose middle sample lies on the boundary vertex 2's
   // doorstep (the crease runs through it): the curve becomes 0 -> 2 and 2 -> 3, the latter a
