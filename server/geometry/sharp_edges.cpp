@@ -745,14 +745,30 @@ class RunCorners {
       // A crease that curves into its corner misses it along its tangent line by more than the
       // tolerance (fandisk's curved top ridge, meeting a straight one: 0.25 off its tangent, a
       // fifth of the hole's diameter): its bent crease must pass within it instead, and the
-      // corner lie ahead of every crossing.
-      const std::optional<Vec3> corner =
-          bends_are_fitted(run.crossings)
-              ? corner_of_bent_creases(plan_, run.crossings, *near_lines)
-              : std::nullopt;
+      // corner lie ahead of every crossing. A clean crease traced over fewer than
+      // kFittedBendEdges has no bend to go by and goes straight on along its tangent, if another
+      // crease of the run has its bend fitted (a short straight edge into the corner that a
+      // curved one reaches: fandisk crease slot s8c9 hole 752).
+      const auto fitted = [&](std::size_t i) {
+        return plan_.crossings[i].traced_edges >= kFittedBendEdges;
+      };
+      const auto project = [&](std::size_t i, const Vec3& x) {
+        const CreaseCrossing& c = plan_.crossings[i];
+        return fitted(i) ? project_on_bent_crease(c, x) : project_on_ray(c.position, c.inward, x);
+      };
+      std::optional<Vec3> corner;
+      if (clean(run.crossings) && std::any_of(run.crossings.begin(), run.crossings.end(), fitted))
+        corner = meeting_point(
+            *near_lines, (*near_lines - plan_.crossings[run.crossings.front()].position).norm(),
+            [&](const Vec3& x, std::vector<CurveProjection>& out) {
+              out.clear();
+              for (const std::size_t i : run.crossings) out.push_back(project(i, x));
+            });
       if (corner && near_enough(run.crossings, *corner) &&
           ahead_of_every_crossing(run.crossings, *corner)) {
-        const double farthest = farthest_bent_crease(plan_, run.crossings, *corner);
+        double farthest = 0;
+        for (const std::size_t i : run.crossings)
+          farthest = std::max(farthest, (project(i, *corner).point - *corner).norm());
         if (farthest <= line_tolerance_) {
           run.corner = corner;
           run.farthest = farthest;
@@ -1200,6 +1216,12 @@ std::vector<std::size_t> end_at_rim_corners(HoleCreasePlan& plan, FaceNormals& n
 //! 7 hole 552: 0.0002 from it, 0.002 edges); couplingdown_sharp #2's corners, which are inside
 //! the hole (a chamfer's, 0.01 wide), lie 0.49-0.56 edges from theirs.
 constexpr double kRimCornerEdges = 0.25;
+//! The same for a rim vertex with no crossing: a corner this near it is on the rim.
+//! couplingdown's chamfer corners, a hundredth wide, lie inside the hole within a quarter of a
+//! mean rim edge of a rim vertex (crease slot s1c7 hole 488: its three corners' plan refused);
+//! fandisk's corner vertex left on the rim, 0.012 of one from the creases' corner (s5c8 hole
+//! 1326).
+constexpr double kRimVertexCornerEdges = 0.05;
 
 bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                      std::span<const std::size_t> crossings, double line_tolerance,
@@ -1301,10 +1323,55 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
   }
   if (!best) return false;
   // A corner on the rim is that rim vertex; a middle corner of three (two links) on the rim is
-  // no plan.
+  // no plan. The vertex may have no crossing of its own: the part's corner vertex left on the
+  // rim with no sharp edge outside the hole (fandisk crease slot s5c8 hole 1326: the corner
+  // 0.0012 from it, 0.46° needles); it gets one, as end_at_rim_corners gives a rim corner.
+  const auto rim_vertex_near = [&](const Vec3& corner) -> std::optional<std::size_t> {
+    std::optional<std::size_t> vertex;
+    double nearest = kRimVertexCornerEdges * mean_edge;
+    for (std::size_t j = 0; j < hole.loop.size(); ++j)
+      if (const double d = (mesh.point(hole.loop[j]) - corner).norm(); d < nearest) {
+        nearest = d;
+        vertex = j;
+      }
+    return vertex;
+  };
+  const auto crossing_at_vertex = [](const HoleCreasePlan& joined,
+                                     std::size_t j) -> std::optional<std::size_t> {
+    for (std::size_t i = 0; i < joined.crossings.size(); ++i)
+      if (joined.crossings[i].loop_index == j) return i;
+    return std::nullopt;
+  };
+  // A crossing at rim vertex j where the creases of \p member's corner end, arriving straight.
+  const auto add_rim_crossing = [&](HoleCreasePlan& joined, std::size_t j, std::size_t member) {
+    CreaseCrossing c = joined.crossings[member];
+    c.loop_index = j;
+    c.vertex = hole.loop[j];
+    c.inward = Vec3(joined.crossings[member].position - mesh.point(c.vertex)).normalize_cond();
+    c.position = mesh.point(c.vertex);
+    c.bend_inward = c.inward;
+    c.curvature = Vec3(0, 0, 0);
+    c.near_rim = {c.position};
+    c.far_point = c.position - mean_edge * c.inward;
+    c.on_crease = c.position;
+    c.traced_edges = 0;
+    c.rim_run = 0;
+    joined.crossings.push_back(c);
+    return joined.crossings.size() - 1;
+  };
   for (std::size_t k = best->corners.size(); k-- > plan.corners.size();) {
-    const std::optional<std::size_t> at = crossing_at_corner(*best, k);
-    if (!at) continue;
+    std::optional<std::size_t> at = crossing_at_corner(*best, k);
+    if (!at) {
+      const std::optional<std::size_t> j = rim_vertex_near(best->corners[k]);
+      if (!j) continue;
+      at = crossing_at_vertex(*best, *j);
+      if (!at) {
+        std::size_t member = crossings.front();
+        for (const CreaseCurve& curve : best->curves)
+          if (!curve.to && curve.corner == k) member = curve.from;
+        at = add_rim_crossing(*best, *j, member);
+      }
+    }
     const auto links =
         std::count_if(best->corner_links.begin(), best->corner_links.end(),
                       [k](const auto& link) { return link.first == k || link.second == k; });

@@ -1180,6 +1180,47 @@ TEST(HoleCaseQuality, ACreaseAlongARimEdgeLeavesNoSliver) {
   EXPECT_LE(patch_distances(*cut).mean, 0.05);
 }
 
+// A slot along fandisk's curved valley down to the part's corner where it meets two straight
+// edges (the faces within 0.113 of 10 of its points, the crease-slot bench's seed 8 cut 9). The
+// curved crease misses the corner along its tangent line, so the corner is where the bent
+// creases come closest; one straight edge is traced over 2 edges only before it reaches the
+// part's next corner, too few to fit a bend, and the run was refused: the 3D triangulation
+// spanned the slot (mean 2.3 per mille, a 2.1° triangle). A crease too short for a bend goes
+// straight on along its tangent when another crease's bend is fitted.
+TEST(HoleCaseQuality, AShortStraightCreaseMeetsACurvedOneAtTheirCorner) {
+  const std::vector<Vec3> valley{Vec3(2.89124, 15.0488, -1.75557), Vec3(2.85126, 15.0326, -1.84753),
+                                 Vec3(2.81586, 15.0161, -1.94106), Vec3(2.78505, 14.9993, -2.03602),
+                                 Vec3(2.75882, 14.9823, -2.13252), Vec3(2.7373, 14.9651, -2.23),
+                                 Vec3(2.72056, 14.9478, -2.32814), Vec3(2.70854, 14.9304, -2.4271),
+                                 Vec3(2.70132, 14.9129, -2.52645), Vec3(2.6989, 14.8952, -2.62643)};
+  const auto cut =
+      fandisk_slot_split(valley, 0.112777271, "3 crease crossings, 3 curves meeting at a corner");
+  ASSERT_TRUE(cut);
+  EXPECT_GE(min_angle_deg(cut->mesh, cut->report.holes[0].new_faces), 15.0);
+  const PatchDistances d = patch_distances(*cut);
+  EXPECT_LE(d.mean, 0.1);
+  EXPECT_LE(d.crease, 1.0);
+}
+
+// A slot along fandisk's curved top edge to the part's corner on its symmetry plane (the faces
+// within 0.071 of 10 of its points, the crease-slot bench's seed 5 cut 8). The corner's vertex
+// stays on the rim with no sharp edge left outside the hole, so no crossing is there; the three
+// creases' corner fell 0.0012 from it, and the curves to it bounded 0.46° needles. The creases
+// end at that rim vertex (it gets a crossing of its own).
+TEST(HoleCaseQuality, ACornerAtARimVertexWithNoCrossingEndsTheCreasesThere) {
+  const std::vector<Vec3> edge{Vec3(3.94577, 15.537, -0.772045),  Vec3(4.03863, 15.5439, -0.733004),
+                               Vec3(4.13326, 15.55, -0.698344),   Vec3(4.22945, 15.5553, -0.66814),
+                               Vec3(4.32697, 15.5598, -0.642467), Vec3(4.42563, 15.5635, -0.621371),
+                               Vec3(4.52517, 15.5665, -0.604909), Vec3(4.62494, 15.5685, -0.593153),
+                               Vec3(4.7256, 15.5698, -0.586026),  Vec3(4.8279, 15.5702, -0.583604)};
+  const auto cut = fandisk_slot_split(edge, 0.0712293537, "4 crease crossings, 3 curves");
+  ASSERT_TRUE(cut);
+  EXPECT_GE(min_angle_deg(cut->mesh, cut->report.holes[0].new_faces), 15.0);
+  const PatchDistances d = patch_distances(*cut);
+  EXPECT_LE(d.mean, 0.1);
+  EXPECT_LE(d.crease, 1.0);
+}
+
 // A ball cut into fandisk across the end of its side plane (ball-cut bench seed 4 cut 0): six
 // creases cross the hole and meet at three corners in a row, A - B - C, all on the side plane.
 // C is a corner of three faces (the side plane and two curved ones) and its link to B is the
