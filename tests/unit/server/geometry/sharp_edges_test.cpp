@@ -411,13 +411,42 @@ TEST(SharpEdges, SmoothSurfacesHaveNoCreases) {
   EXPECT_TRUE(plan.curves.empty());
 }
 
-TEST(CurveSplit, ChordSplitsASquareIntoTwoRegions) {
-  // A planar 8-gon (square with edge midpoints), curve from vertex 1 to vertex 5 via 2 points.
-  const std::vector<Vec3> loop{{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 1, 0},
-                               {2, 2, 0}, {1, 2, 0}, {0, 2, 0}, {0, 1, 0}};
+//! The square (0, 0)-(2, 2) with its edges' midpoints: 8 boundary vertices, counter-clockwise.
+std::vector<Vec3> square_of_eight() {
+  return {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 1, 0}, {2, 2, 0}, {1, 2, 0}, {0, 2, 0}, {0, 1, 0}};
+}
+
+//! The opposite vertices of a planar loop's boundary edges: below each edge's midpoint.
+std::vector<Vec3> opposite_below(const std::vector<Vec3>& loop) {
   std::vector<Vec3> opposite;
   for (std::size_t i = 0; i < loop.size(); ++i)
     opposite.push_back(0.5 * (loop[i] + loop[(i + 1) % loop.size()]) + Vec3(0, 0, -1));
+  return opposite;
+}
+
+//! Every curve edge of \p t is used by exactly two triangles (one per side), every other
+//! interior edge by two, every edge of the \p loop_size boundary vertices by one: a manifold disk.
+void expect_manifold_disk(const CurveSplitTriangulation& t, std::size_t loop_size) {
+  const int n = static_cast<int>(loop_size);
+  std::map<std::pair<int, int>, int> uses;
+  for (const auto& tri : t.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = tri[static_cast<std::size_t>(k)],
+                b = tri[static_cast<std::size_t>((k + 1) % 3)];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  for (const auto& [a, b] : t.curve_edges) EXPECT_EQ((uses[{std::min(a, b), std::max(a, b)}]), 2);
+  for (const auto& [edge, count] : uses) {
+    const bool loop_edge = edge.second < n && (edge.second - edge.first == 1 ||
+                                               (edge.first == 0 && edge.second == n - 1));
+    EXPECT_EQ(count, loop_edge ? 1 : 2) << edge.first << "-" << edge.second;
+  }
+}
+
+TEST(CurveSplit, ChordSplitsASquareIntoTwoRegions) {
+  // A planar 8-gon (square with edge midpoints), curve from vertex 1 to vertex 5 via 2 points.
+  const std::vector<Vec3> loop = square_of_eight();
+  const std::vector<Vec3> opposite = opposite_below(loop);
   CurveSplitInput in;
   in.loop = loop;
   in.opposite = opposite;
@@ -426,22 +455,8 @@ TEST(CurveSplit, ChordSplitsASquareIntoTwoRegions) {
   ASSERT_TRUE(t.ok) << t.failure;
   EXPECT_EQ(t.pieces, 2u);
   EXPECT_EQ(t.new_points.size(), 2u);
-  // Every curve edge is used by exactly two triangles (one per side), every other interior
-  // edge by two, every loop edge by one: a manifold disk.
-  std::map<std::pair<int, int>, int> uses;
-  for (const auto& tri : t.triangles)
-    for (int k = 0; k < 3; ++k) {
-      const int a = tri[static_cast<std::size_t>(k)],
-                b = tri[static_cast<std::size_t>((k + 1) % 3)];
-      ++uses[{std::min(a, b), std::max(a, b)}];
-    }
   ASSERT_EQ(t.curve_edges.size(), 3u);
-  for (const auto& [a, b] : t.curve_edges) EXPECT_EQ((uses[{std::min(a, b), std::max(a, b)}]), 2);
-  for (const auto& [edge, count] : uses) {
-    const bool loop_edge =
-        edge.second < 8 && (edge.second - edge.first == 1 || (edge.first == 0 && edge.second == 7));
-    EXPECT_EQ(count, loop_edge ? 1 : 2) << edge.first << "-" << edge.second;
-  }
+  expect_manifold_disk(t, loop.size());
   // The two regions lie on the two sides of the curve x = 1.
   auto centroid_x = [&](const std::array<int, 3>& tri) {
     double x = 0;
@@ -464,11 +479,8 @@ TEST(CurveSplit, ARimVertexWithCurvesToTheRimAndToACornerOrdersThemByTheLoop) {
   // move_corner_to_rim turned into vertex 1: one crease ends there, its link leaves to the
   // other corner). Around vertex 1 the curve to the corner comes first from vertex 2 (the
   // corner's rim ends, 4 and 6, are nearer along the loop than 7): four regions, a manifold disk.
-  const std::vector<Vec3> loop{{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 1, 0},
-                               {2, 2, 0}, {1, 2, 0}, {0, 2, 0}, {0, 1, 0}};
-  std::vector<Vec3> opposite;
-  for (std::size_t i = 0; i < loop.size(); ++i)
-    opposite.push_back(0.5 * (loop[i] + loop[(i + 1) % loop.size()]) + Vec3(0, 0, -1));
+  const std::vector<Vec3> loop = square_of_eight();
+  const std::vector<Vec3> opposite = opposite_below(loop);
   CurveSplitInput in;
   in.loop = loop;
   in.opposite = opposite;
@@ -477,19 +489,7 @@ TEST(CurveSplit, ARimVertexWithCurvesToTheRimAndToACornerOrdersThemByTheLoop) {
   const CurveSplitTriangulation t = triangulate_along_curves(in);
   ASSERT_TRUE(t.ok) << t.failure;
   EXPECT_EQ(t.pieces, 4u);
-  std::map<std::pair<int, int>, int> uses;
-  for (const auto& tri : t.triangles)
-    for (int k = 0; k < 3; ++k) {
-      const int a = tri[static_cast<std::size_t>(k)],
-                b = tri[static_cast<std::size_t>((k + 1) % 3)];
-      ++uses[{std::min(a, b), std::max(a, b)}];
-    }
-  for (const auto& [a, b] : t.curve_edges) EXPECT_EQ((uses[{std::min(a, b), std::max(a, b)}]), 2);
-  for (const auto& [edge, count] : uses) {
-    const bool loop_edge =
-        edge.second < 8 && (edge.second - edge.first == 1 || (edge.first == 0 && edge.second == 7));
-    EXPECT_EQ(count, loop_edge ? 1 : 2) << edge.first << "-" << edge.second;
-  }
+  expect_manifold_disk(t, loop.size());
 }
 
 TEST(CurveSplit, RejectsCurvesThatDoNotEndOnTheLoop) {
