@@ -800,22 +800,29 @@ class RunCorners {
 };
 
 //! Appends \p corner to the plan and a curve to it from each of \p crossings.
+//! Makes \p curve run from crossing \p c along its tangent to \p end, arriving as a circular arc
+//! would (the start tangent mirrored about the chord). False where \p end is at the crossing
+//! (no curve needed).
+bool arrive_at(CreaseCurve& curve, const CreaseCrossing& c, const Vec3& end,
+               const HermiteOptions& hermite, double tolerance) {
+  const Vec3 chord = end - c.position;
+  const Vec3 unit = Vec3(chord).normalize_cond();
+  const Vec3 end_direction = 2.0 * OpenMesh::dot(c.inward, unit) * unit - c.inward;
+  curve.points = {c.far_point, c.position, end, end + chord.norm() * end_direction};
+  const HermiteCurveResult r = make_hermite_curve(curve.points, hermite, tolerance);
+  if (!r.curve) return false;
+  curve.curve = *r.curve;
+  return true;
+}
+
 void add_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings, const Vec3& corner,
                 const HermiteOptions& hermite, double tolerance) {
   for (const std::size_t i : crossings) {
-    const CreaseCrossing& c = plan.crossings[i];
-    const Vec3 chord = corner - c.position;
-    const Vec3 unit = Vec3(chord).normalize_cond();
-    // Arrive as a circular arc would: the start tangent mirrored about the chord.
-    const Vec3 end_direction = 2.0 * OpenMesh::dot(c.inward, unit) * unit - c.inward;
     CreaseCurve curve;
     curve.from = i;
     curve.corner = plan.corners.size();
-    curve.points = {c.far_point, c.position, corner, corner + chord.norm() * end_direction};
-    const HermiteCurveResult r = make_hermite_curve(curve.points, hermite, tolerance);
-    if (!r.curve) continue;  // the corner is on the rim there: no curve needed
-    curve.curve = *r.curve;
-    plan.curves.push_back(curve);
+    if (arrive_at(curve, plan.crossings[i], corner, hermite, tolerance))
+      plan.curves.push_back(curve);
   }
   plan.corners.push_back(corner);
 }
@@ -835,16 +842,9 @@ void move_corner_to_rim(HoleCreasePlan& plan, std::size_t k, std::size_t at,
       continue;
     }
     if (curve.from == at) continue;
-    const CreaseCrossing& c = plan.crossings[curve.from];
-    const Vec3 chord = end - c.position;
-    const Vec3 unit = Vec3(chord).normalize_cond();
-    const Vec3 end_direction = 2.0 * OpenMesh::dot(c.inward, unit) * unit - c.inward;
     curve.to = at;
-    curve.points = {c.far_point, c.position, end, end + chord.norm() * end_direction};
-    const HermiteCurveResult r = make_hermite_curve(curve.points, hermite, tolerance);
-    if (!r.curve) continue;
-    curve.curve = *r.curve;
-    curves.push_back(std::move(curve));
+    if (arrive_at(curve, plan.crossings[curve.from], end, hermite, tolerance))
+      curves.push_back(std::move(curve));
   }
   std::vector<std::pair<std::size_t, std::size_t>> links;
   for (const auto& [a, b] : plan.corner_links) {
@@ -1079,6 +1079,28 @@ HermitePoints straight_curve_points(const Vec3& a, const Vec3& b) {
   return {a - chord, a, b, b + chord};
 }
 
+//! A crossing at rim vertex \p vertex (loop index \p loop_index, at \p position) where a crease
+//! arriving from \p arriving ends: it continues that crease straight, its tangent \p inward
+//! pointing back into the hole and its far point \p far_length beyond the vertex, for the
+//! consumers that read a curve's end from its crossing.
+CreaseCrossing crossing_ending_at(const CreaseCrossing& arriving, std::size_t loop_index,
+                                  VertexHandle vertex, const Vec3& position, const Vec3& inward,
+                                  double far_length) {
+  CreaseCrossing c = arriving;
+  c.loop_index = loop_index;
+  c.vertex = vertex;
+  c.position = position;
+  c.inward = inward;
+  c.bend_inward = inward;
+  c.curvature = Vec3(0, 0, 0);
+  c.near_rim = {position};
+  c.far_point = position - far_length * inward;
+  c.on_crease = position;
+  c.traced_edges = 0;
+  c.rim_run = 0;
+  return c;
+}
+
 //! Creases left over that run straight into a rim vertex where a crease meets the rim end
 //! there: the cut went through a corner of the part, so the creases meet on the rim and not
 //! inside the hole (the least-squares corner of join_at_corners then falls on the rim, outside
@@ -1173,19 +1195,7 @@ std::vector<std::size_t> end_at_rim_corners(HoleCreasePlan& plan, FaceNormals& n
     if (!end) {
       // The crease ends at the vertex: a crossing there continuing it straight (as the curve
       // arrives), for the consumers that read a curve's end from its crossing.
-      CreaseCrossing c = ca;
-      c.loop_index = j;
-      c.vertex = hole.loop[j];
-      c.position = corner;
-      c.inward = -unit;
-      c.bend_inward = -unit;
-      c.curvature = Vec3(0, 0, 0);
-      c.near_rim = {corner};
-      c.far_point = corner + fit_length * unit;
-      c.on_crease = corner;
-      c.traced_edges = 0;
-      c.rim_run = 0;
-      plan.crossings.push_back(c);
+      plan.crossings.push_back(crossing_ending_at(ca, j, hole.loop[j], corner, -unit, fit_length));
       matched.push_back(false);
       end = plan.crossings.size() - 1;
     }
@@ -1344,19 +1354,11 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
   };
   // A crossing at rim vertex j where the creases of \p member's corner end, arriving straight.
   const auto add_rim_crossing = [&](HoleCreasePlan& joined, std::size_t j, std::size_t member) {
-    CreaseCrossing c = joined.crossings[member];
-    c.loop_index = j;
-    c.vertex = hole.loop[j];
-    c.inward = Vec3(joined.crossings[member].position - mesh.point(c.vertex)).normalize_cond();
-    c.position = mesh.point(c.vertex);
-    c.bend_inward = c.inward;
-    c.curvature = Vec3(0, 0, 0);
-    c.near_rim = {c.position};
-    c.far_point = c.position - mean_edge * c.inward;
-    c.on_crease = c.position;
-    c.traced_edges = 0;
-    c.rim_run = 0;
-    joined.crossings.push_back(c);
+    const Vec3 position = mesh.point(hole.loop[j]);
+    const CreaseCrossing& from = joined.crossings[member];
+    joined.crossings.push_back(crossing_ending_at(from, j, hole.loop[j], position,
+                                                  Vec3(from.position - position).normalize_cond(),
+                                                  mean_edge));
     return joined.crossings.size() - 1;
   };
   for (std::size_t k = best->corners.size(); k-- > plan.corners.size();) {
@@ -2118,11 +2120,6 @@ bool triangulate_region(const std::vector<int>& region, const std::vector<Vec3>&
 
 namespace {
 
-//! Where a curve passes (within a third of its sample spacing) by a boundary vertex other than
-//! its ends, the crease runs through that vertex: the curve is cut there into two curves that
-//! end on it (a piece joining two neighbouring boundary vertices is the boundary edge itself
-//! and is dropped). Left as it was, the sample beside the boundary vertex would make a sliver
-//! between the curve and the boundary that nothing downstream can mend, both being fixed.
 //! attach_curves_to_boundary: a curve between neighbouring boundary vertices that stays within
 //! this share of their edge's length of it is that edge. The region between them would be a
 //! sliver no pass can mend, both sides being fixed (couplingdown crease slots along a boss's rim,
@@ -2130,6 +2127,11 @@ namespace {
 //! triangle); a tenth keeps such a region's best triangle under 12°.
 constexpr double kAlongEdgeShare = 0.1;
 
+//! Where a curve passes (within a third of its sample spacing) by a boundary vertex other than
+//! its ends, the crease runs through that vertex: the curve is cut there into two curves that
+//! end on it (a piece joining two neighbouring boundary vertices is the boundary edge itself
+//! and is dropped). Left as it was, the sample beside the boundary vertex would make a sliver
+//! between the curve and the boundary that nothing downstream can mend, both being fixed.
 std::vector<CurveSplitInput::Curve> attach_curves_to_boundary(const CurveSplitInput& input) {
   const int loop_n = static_cast<int>(input.loop.size());
   std::vector<CurveSplitInput::Curve> out;
