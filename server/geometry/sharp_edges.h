@@ -182,7 +182,7 @@ struct CreaseCurve {
 struct HoleCreasePlan {
   std::vector<CreaseCrossing> crossings;
   std::vector<CreaseCurve> curves;
-  //! Where creases meet inside the hole: one corner (a cube corner cut away), or two or three
+  //! Where creases meet inside the hole: one corner (a cube corner cut away), or two to four
   //! in a row joined by straight creases (corner_links), each with the creases from the rim
   //! that end there.
   std::vector<Vec3> corners;
@@ -242,9 +242,10 @@ bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings
 //! Joins the creases of \p crossings (two or more) inside the hole: two clean ones at a corner
 //! where their bent creases meet, off the rim; three or more at one corner (join_at_corner, or
 //! where their clean bent creases meet; it must satisfy \p inside_hole) or, four or more, at
-//! two corners joined by a straight crease, or, five or more, at three in a row joined by two;
-//! each run of creases contiguous along the loop, its corner where the creases continued with
-//! their fitted bend come closest (the middle one of three also nearest the two links). Each
+//! two corners joined by a straight crease, or, five or more, at three in a row joined by two,
+//! or, six or more, at four in a row joined by three; each run of creases contiguous along the
+//! loop, its corner where the creases continued with their fitted bend come closest (a middle
+//! one also nearest the links from its neighbours at the ends). Each
 //! further corner is taken when the creases pass within \p two_corner_gain of the best plan with
 //! fewer. A corner that falls within a quarter of a mean rim edge of one of its crossings is on
 //! the rim (the cut went through the part's corner): the other creases end at that crossing's

@@ -1219,21 +1219,42 @@ TEST(HoleCaseQuality, ACornerAtARimVertexWithNoCrossingEndsTheCreasesThere) {
 }
 
 // A ball cut into fandisk across the end of its side plane (ball-cut bench seed 4 cut 0): six
-// creases cross the hole and meet at three corners in a row, A - B - C, all on the side plane.
-// C is a corner of three faces (the side plane and two curved ones) and its link to B is the
-// edge of the side plane and the upper curved face. That link was taken from the rim triangles
-// just outside C's creases, but the one after the side plane's crease still belongs to the
-// lower curved face (it reaches past the crease's rim vertex): the link pointed across the part,
-// B was refused as lying behind it, and the 3D triangulation spanned the hole (17.3 per mille
-// mean). From the creases' own faces the link runs up the side plane.
+// creases cross the hole and meet at corners in a row on the side plane (four since
+// join_at_four_corners: the step's ridge and valley each end at one of their own; three before,
+// 1.25 per mille mean, now 0.80). The last corner is one of three faces (the side plane and two
+// curved ones) and its link runs along the edge of the side plane and the upper curved face.
+// That link was taken from the rim triangles just outside the corner's creases, but the one
+// after the side plane's crease still belongs to the lower curved face (it reaches past the
+// crease's rim vertex): the link pointed across the part, the next corner was refused as lying
+// behind it, and the 3D triangulation spanned the hole (17.3 per mille mean). From the creases'
+// own faces the link runs up the side plane.
 TEST(HoleCaseQuality, ACornerLinkLeavesAlongTheFacesOfItsCreases) {
   const auto cut = fill_one_cut("fandisk.obj", Vec3(4.53432, 13.9805, -0.328044), 1.00622902);
   ASSERT_TRUE(cut);
   const HoleFillReport& r = cut->report.holes[0];
   EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_EQ(r.creases, "6 crease crossings, 8 curves meeting at 3 corners");
+  EXPECT_EQ(r.creases, "6 crease crossings, 9 curves meeting at 4 corners");
   EXPECT_LE(patch_distances(*cut).mean, 1.5);
   EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
+}
+
+// A ball cut into fandisk across the end of its step, where the step meets the side plane
+// (ball-cut bench seed 11 cut 2, its largest ball): six creases cross the hole and meet at four
+// corners in a row on the side plane, P - Q - R - S. P and S take two creases each (the top
+// plane's two edges at P, the side plane's lower edge and a ridge of the step at S); Q and R one
+// each (the step's ridge and valley), joined to P, to S and to each other by the side plane's
+// edges. With three corners at most the plan found none, every crease went unmatched and the
+// 3D triangulation spanned the hole (mean 21.8 per mille, Hausdorff 56, a 1.8° triangle).
+TEST(HoleCaseQuality, AStepEndingAtASidePlaneMeetsItAtFourCorners) {
+  const auto cut = fill_one_cut("fandisk.obj", Vec3(4.24637, 13.8764, -0.371368), 1.12559913);
+  ASSERT_TRUE(cut);
+  const HoleFillReport& r = cut->report.holes[0];
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.creases, "6 crease crossings, 9 curves meeting at 4 corners");
+  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
+  const PatchDistances d = patch_distances(*cut);
+  EXPECT_LE(d.mean, 0.5);
+  EXPECT_LE(d.crease, 3.0);
 }
 
 // A ball cut that takes the whole tip of fandisk's thin wing (ball-cut bench, seed 1 cut 0): the
