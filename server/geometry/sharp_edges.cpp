@@ -2293,22 +2293,28 @@ constexpr double kAlongEdgeShare = 0.1;
 std::vector<CurveSplitInput::Curve> attach_curves_to_boundary(const CurveSplitInput& input) {
   const int loop_n = static_cast<int>(input.loop.size());
   std::vector<CurveSplitInput::Curve> out;
-  // A piece between two neighbouring boundary vertices with no samples, or with its samples
-  // within kAlongEdgeShare of the boundary edge's length off it, runs along the boundary edge
-  // that is already there: it adds nothing (but a sliver between it and the edge) and is dropped.
+  // A piece between two boundary vertices whose samples all lie within kAlongEdgeShare of an
+  // edge's length off the boundary path between them (one way round or the other; a piece
+  // between neighbours with no samples too) runs along the boundary that is already there: the
+  // crease is the rim there (the cut followed it), and the piece adds nothing but slivers
+  // between it and the rim. It is dropped.
+  const auto along_rim = [&](int from, int steps, const std::vector<Vec3>& samples) {
+    if (samples.empty()) return steps == 1;
+    return std::all_of(samples.begin(), samples.end(), [&](const Vec3& p) {
+      for (int k = 0; k < steps; ++k) {
+        const Vec3& a = input.loop[static_cast<std::size_t>((from + k) % loop_n)];
+        const Vec3& b = input.loop[static_cast<std::size_t>((from + k + 1) % loop_n)];
+        const double limit = kAlongEdgeShare * (b - a).norm();
+        if (segment_segment_distance2(p, p, a, b) <= limit * limit) return true;
+      }
+      return false;
+    });
+  };
   const auto emit = [&](CurveSplitInput::Curve c) {
     if (c.from >= 0 && c.to >= 0) {
       const int gap = ((c.to - c.from) % loop_n + loop_n) % loop_n;
       if (gap == 0) return;
-      if (gap == 1 || gap == loop_n - 1) {
-        const Vec3& a = input.loop[static_cast<std::size_t>(c.from)];
-        const Vec3& b = input.loop[static_cast<std::size_t>(c.to)];
-        const double limit = kAlongEdgeShare * (b - a).norm();
-        if (std::all_of(c.interior.begin(), c.interior.end(), [&](const Vec3& p) {
-              return segment_segment_distance2(p, p, a, b) <= limit * limit;
-            }))
-          return;
-      }
+      if (along_rim(c.from, gap, c.interior) || along_rim(c.to, loop_n - gap, c.interior)) return;
     }
     out.push_back(std::move(c));
   };

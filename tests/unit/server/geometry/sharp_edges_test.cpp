@@ -541,6 +541,33 @@ TEST(CurveSplit, CurveHuggingABoundaryEdgeIsThatEdge) {
   EXPECT_EQ(bowed.curve_edges.size(), 2u);
 }
 
+TEST(CurveSplit, CurveHuggingSeveralBoundaryEdgesIsThatStretch) {
+  // A crease that the rim follows for two edges (0 -> 1 -> 2 of a hexagon's half, flattened):
+  // the pair's curve 0 -> 2 runs a hair inside those edges, its samples between the rim's
+  // vertices, so no sample is near vertex 1 and the curve is not cut there. Within a tenth of
+  // an edge's length of that stretch it is the stretch, and the hole is one region; the same
+  // samples bowed farther in split it, and a chord 0 -> 2 with no samples is kept.
+  const std::vector<Vec3> loop{{0, 0, 0}, {1, 0.05, 0}, {2, 0, 0}, {2, 1, 0}, {0, 1, 0}};
+  const std::vector<Vec3> opposite(5, Vec3(1, 0.5, -1));
+  CurveSplitInput in;
+  in.loop = loop;
+  in.opposite = opposite;
+  in.curves = {{0, 2, {Vec3(0.4, 0.03, 0), Vec3(1.6, 0.03, 0)}}};
+  const CurveSplitTriangulation hugging = triangulate_along_curves(in);
+  ASSERT_TRUE(hugging.ok) << hugging.failure;
+  EXPECT_EQ(hugging.pieces, 1u);
+  EXPECT_TRUE(hugging.curve_edges.empty());
+  in.curves = {{0, 2, {Vec3(0.4, 0.3, 0), Vec3(1.6, 0.3, 0)}}};
+  const CurveSplitTriangulation bowed = triangulate_along_curves(in);
+  ASSERT_TRUE(bowed.ok) << bowed.failure;
+  EXPECT_EQ(bowed.pieces, 2u);
+  in.curves = {{0, 2, {}}};
+  const CurveSplitTriangulation chord = triangulate_along_curves(in);
+  ASSERT_TRUE(chord.ok) << chord.failure;
+  EXPECT_EQ(chord.pieces, 2u);
+  EXPECT_EQ(chord.curve_edges.size(), 1u);
+}
+
 TEST(CurveSplit, CurvePassingByABoundaryVertexIsCutThere) {
   // A hexagon split by a curve 0 -> 3 whose middle sample lies on the boundary vertex 2's
   // doorstep (the crease runs through it): the curve becomes 0 -> 2 and 2 -> 3, the latter a
