@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <initializer_list>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -829,6 +830,19 @@ void add_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings, co
   plan.corners.push_back(corner);
 }
 
+//! Appends corners in a row, each with the curves from its run's crossings (add_corner), each
+//! joined to the next by a straight crease (corner_links): the two-, three- and four-corner
+//! plans.
+void add_corners_in_a_row(HoleCreasePlan& plan,
+                          std::initializer_list<std::pair<const RunCorners::Run*, Vec3>> row,
+                          const HermiteOptions& hermite, double tolerance) {
+  const std::size_t first = plan.corners.size();
+  for (const auto& [run, corner] : row)
+    add_corner(plan, run->crossings, corner, hermite, tolerance);
+  for (std::size_t k = first + 1; k < plan.corners.size(); ++k)
+    plan.corner_links.emplace_back(k - 1, k);
+}
+
 //! Moves corner \p k of \p plan onto the rim vertex of crossing \p at (the creases meet at a
 //! corner of the part that the cut left on the rim): the curves from the corner's other creases
 //! end at that crossing, arriving as they arrived at the corner; the crossing's own curve goes;
@@ -922,10 +936,8 @@ bool join_at_two_corners(HoleCreasePlan& plan, std::span<const std::size_t> cros
     }
   if (!best_a) return false;
   farthest = best_score;
-  const std::size_t first = plan.corners.size();
-  add_corner(plan, best_a->crossings, *best_a->corner, hermite, tolerance);
-  add_corner(plan, best_b->crossings, *best_b->corner, hermite, tolerance);
-  plan.corner_links.emplace_back(first, first + 1);
+  add_corners_in_a_row(plan, {{best_a, *best_a->corner}, {best_b, *best_b->corner}}, hermite,
+                       tolerance);
   return true;
 }
 
@@ -995,11 +1007,12 @@ std::optional<Vec3> edge_of_outer_faces(const Mesh& mesh, const Hole& hole,
 //! contiguous along the loop; the ends A and C take at least two creases each, placed as in
 //! join_at_two_corners. Each end's link leaves along the edge of its run's outer faces
 //! (edge_of_outer_faces): B, whose creases alone cannot place it, is where its bent creases and
-//! the two links come closest. Of the splits that qualify, the one whose creases and links pass
-//! closest to their corners is taken; \p farthest receives that distance.
+//! the two links come closest. Of the splits whose creases and links pass within \p within of
+//! their corners, the one where they pass closest is taken; \p farthest receives that distance.
 bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                            std::span<const std::size_t> crossings, RunCorners& runs,
-                           const HermiteOptions& hermite, double tolerance, double& farthest) {
+                           const HermiteOptions& hermite, double tolerance, double within,
+                           double& farthest) {
   const std::size_t count = crossings.size();
   if (count < 5) return false;
   struct Split {
@@ -1009,7 +1022,9 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
     Vec3 corner_b;
   };
   std::optional<Split> best;
-  double best_score = std::numeric_limits<double>::infinity();
+  // A split replaces the best so far when it passes strictly closer; the first must pass within
+  // `within` (inclusive).
+  double best_score = std::nextafter(within, std::numeric_limits<double>::infinity());
   // Each split and choice of middle once: a is the run just before the middle b.
   for (std::size_t start = 0; start < count; ++start)
     for (std::size_t length_a = 2; length_a + 3 <= count; ++length_a)
@@ -1018,7 +1033,8 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
         const RunCorners::Run& b = runs.at(start + length_a, length_b);
         const RunCorners::Run& c =
             runs.at(start + length_a + length_b, count - length_a - length_b);
-        if (!a.corner || !c.corner) continue;
+        // Ends that already pass no closer than the best cannot make a better split.
+        if (!a.corner || !c.corner || !(std::max(a.farthest, c.farthest) < best_score)) continue;
         // Where b's creases head (their crossings' centroid): the links leave towards it.
         Vec3 towards(0, 0, 0);
         for (const std::size_t i : b.crossings) towards += plan.crossings[i].position;
@@ -1065,12 +1081,9 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
       }
   if (!best) return false;
   farthest = best_score;
-  const std::size_t first = plan.corners.size();
-  add_corner(plan, best->a->crossings, *best->a->corner, hermite, tolerance);
-  add_corner(plan, best->b->crossings, best->corner_b, hermite, tolerance);
-  add_corner(plan, best->c->crossings, *best->c->corner, hermite, tolerance);
-  plan.corner_links.emplace_back(first, first + 1);
-  plan.corner_links.emplace_back(first + 1, first + 2);
+  add_corners_in_a_row(
+      plan, {{best->a, *best->a->corner}, {best->b, best->corner_b}, {best->c, *best->c->corner}},
+      hermite, tolerance);
   return true;
 }
 
@@ -1125,14 +1138,15 @@ std::vector<Vec3> corner_edges(const Mesh& mesh, const Hole& hole, const HoleCre
 //! faces beside it meet the side face: the side face's edges link the corners). The crossings
 //! (in loop order) are split into four runs contiguous along the loop; the ends A and D take at
 //! least two creases each, placed as in join_at_two_corners, the middles B and C one or more.
-//! Each end's link leaves along the edge of its run's outer faces (edge_of_outer_faces), and
-//! its neighbour in the middle is where that link and the neighbour's bent creases come
-//! closest; B and C are joined by a straight crease. Of the splits that qualify, the one whose
-//! creases and links pass closest to their corners is taken; \p farthest receives that
-//! distance.
+//! Each end's link leaves along an edge of its end creases' faces (corner_edges), either way,
+//! and its neighbour in the middle is where that link and the neighbour's bent creases come
+//! closest (the edge and way where they come closest of all); B and C are joined by a straight
+//! crease. Of the splits whose creases and links pass within \p within of their corners, the
+//! one where they pass closest is taken; \p farthest receives that distance.
 bool join_at_four_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                           std::span<const std::size_t> crossings, RunCorners& runs,
-                          const HermiteOptions& hermite, double tolerance, double& farthest) {
+                          const HermiteOptions& hermite, double tolerance, double within,
+                          double& farthest) {
   const std::size_t count = crossings.size();
   if (count < 6) return false;
   struct Split {
@@ -1143,12 +1157,16 @@ bool join_at_four_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& ho
     Vec3 corner_b, corner_c;
   };
   std::optional<Split> best;
-  double best_score = std::numeric_limits<double>::infinity();
+  double best_score = std::nextafter(within, std::numeric_limits<double>::infinity());
   // The middle corner next to end \p end (a run with a corner) along its link, towards the
   // crossings of \p middle: where the link and the middle's bent creases come closest, with how
   // far the farthest of them passes; none where it does not lie ahead along the link, near the
   // hole.
-  const auto middle_corner =
+  // Each (end, middle) pair once: the splits share them.
+  std::map<std::pair<const RunCorners::Run*, const RunCorners::Run*>,
+           std::optional<std::pair<Vec3, double>>>
+      middles;
+  const auto work_out_middle =
       [&](const RunCorners::Run& end,
           const RunCorners::Run& middle) -> std::optional<std::pair<Vec3, double>> {
     Vec3 towards(0, 0, 0);
@@ -1188,6 +1206,14 @@ bool join_at_four_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& ho
       }
     return found;
   };
+  const auto middle_corner =
+      [&](const RunCorners::Run& end,
+          const RunCorners::Run& middle) -> const std::optional<std::pair<Vec3, double>>& {
+    const auto key = std::pair{&end, &middle};
+    auto it = middles.find(key);
+    if (it == middles.end()) it = middles.emplace(key, work_out_middle(end, middle)).first;
+    return it->second;
+  };
   for (std::size_t start = 0; start < count; ++start)
     for (std::size_t length_a = 2; length_a + 4 <= count; ++length_a)
       for (std::size_t length_b = 1; length_a + length_b + 3 <= count; ++length_b)
@@ -1197,10 +1223,13 @@ bool join_at_four_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& ho
           const RunCorners::Run& c = runs.at(start + length_a + length_b, length_c);
           const RunCorners::Run& d = runs.at(start + length_a + length_b + length_c,
                                              count - length_a - length_b - length_c);
-          if (!a.corner || !d.corner) continue;
-          const auto corner_b = middle_corner(a, b);
-          if (!corner_b) continue;
-          const auto corner_c = middle_corner(d, c);
+          // A split whose ends, or first middle, already pass no closer than the best found
+          // cannot replace it: the middles are not worked out (many splits share their runs,
+          // and each middle takes a meeting-point search per edge and way).
+          if (!a.corner || !d.corner || !(std::max(a.farthest, d.farthest) < best_score)) continue;
+          const auto& corner_b = middle_corner(a, b);
+          if (!corner_b || !(corner_b->second < best_score)) continue;
+          const auto& corner_c = middle_corner(d, c);
           if (!corner_c) continue;
           const double score =
               std::max({a.farthest, d.farthest, corner_b->second, corner_c->second});
@@ -1211,14 +1240,12 @@ bool join_at_four_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& ho
         }
   if (!best) return false;
   farthest = best_score;
-  const std::size_t first = plan.corners.size();
-  add_corner(plan, best->a->crossings, *best->a->corner, hermite, tolerance);
-  add_corner(plan, best->b->crossings, best->corner_b, hermite, tolerance);
-  add_corner(plan, best->c->crossings, best->corner_c, hermite, tolerance);
-  add_corner(plan, best->d->crossings, *best->d->corner, hermite, tolerance);
-  plan.corner_links.emplace_back(first, first + 1);
-  plan.corner_links.emplace_back(first + 1, first + 2);
-  plan.corner_links.emplace_back(first + 2, first + 3);
+  add_corners_in_a_row(plan,
+                       {{best->a, *best->a->corner},
+                        {best->b, best->corner_b},
+                        {best->c, best->corner_c},
+                        {best->d, *best->d->corner}},
+                       hermite, tolerance);
   return true;
 }
 
@@ -1476,7 +1503,7 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
   double three_distance = 0;
   if (crossings.size() >= 5 &&
       join_at_three_corners(three, mesh, hole, crossings, runs, hermite, tolerance,
-                            three_distance) &&
+                            two_corner_gain * best_distance, three_distance) &&
       three_distance <= two_corner_gain * best_distance) {
     best = std::move(three);
     best_distance = three_distance;
@@ -1484,7 +1511,8 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
   HoleCreasePlan four = plan;
   double four_distance = 0;
   if (crossings.size() >= 6 &&
-      join_at_four_corners(four, mesh, hole, crossings, runs, hermite, tolerance, four_distance) &&
+      join_at_four_corners(four, mesh, hole, crossings, runs, hermite, tolerance,
+                           two_corner_gain * best_distance, four_distance) &&
       four_distance <= two_corner_gain * best_distance) {
     best = std::move(four);
     best_distance = four_distance;
