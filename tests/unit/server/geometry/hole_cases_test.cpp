@@ -1003,6 +1003,16 @@ PatchDistances patch_distances(const CutFill& cut) {
   return out;
 }
 
+//! The one hole of \p cut, checked as a crease split's fill: split along its creases, no
+//! triangle under DESIGN's 15°, within \p max_mean per mille of the removed faces on average.
+const HoleFillReport& expect_crease_split_fill(const CutFill& cut, double max_mean) {
+  const HoleFillReport& r = cut.report.holes[0];
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_GE(min_angle_deg(cut.mesh, r.new_faces), 15.0) << r.creases;
+  EXPECT_LE(patch_distances(cut).mean, max_mean) << r.creases;
+  return r;
+}
+
 // A slot cut into fandisk along the straight ridge between two corners and on along the curved
 // top ridge (the faces within 0.11 of that path, as the cut bench's slots along creases take
 // them): at the upper corner the straight ridge meets another ridge and a valley, at the lower
@@ -1177,10 +1187,7 @@ TEST(HoleCaseQuality, ACreaseAlongARimEdgeLeavesNoSliver) {
       Vec3(0.0264971, -0.396003, 0.157233), Vec3(0.0325052, -0.406409, 0.157233)};
   const auto cut = fill_slot_cut("couplingdown.off", rim, 0.0156543486);
   ASSERT_TRUE(cut);
-  const HoleFillReport& r = cut->report.holes[0];
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0) << r.creases;
-  EXPECT_LE(patch_distances(*cut).mean, 0.05);
+  expect_crease_split_fill(*cut, 0.05);
 }
 
 // A slot along fandisk's curved valley down to the part's corner where it meets two straight
@@ -1231,11 +1238,8 @@ TEST(HoleCaseQuality, ACornerAtARimVertexWithNoCrossingEndsTheCreasesThere) {
 TEST(HoleCaseQuality, ACornerLinkLeavesAlongTheFacesOfItsCreases) {
   const auto cut = fill_one_cut("fandisk.obj", Vec3(4.53432, 13.9805, -0.328044), 1.00622902);
   ASSERT_TRUE(cut);
-  const HoleFillReport& r = cut->report.holes[0];
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  const HoleFillReport& r = expect_crease_split_fill(*cut, 1.5);
   EXPECT_EQ(r.creases, "6 crease crossings, 9 curves meeting at 4 corners");
-  EXPECT_LE(patch_distances(*cut).mean, 1.5);
-  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
 }
 
 // A ball cut into fandisk across the end of its step, where the step meets the side plane
@@ -1248,13 +1252,9 @@ TEST(HoleCaseQuality, ACornerLinkLeavesAlongTheFacesOfItsCreases) {
 TEST(HoleCaseQuality, AStepEndingAtASidePlaneMeetsItAtFourCorners) {
   const auto cut = fill_one_cut("fandisk.obj", Vec3(4.24637, 13.8764, -0.371368), 1.12559913);
   ASSERT_TRUE(cut);
-  const HoleFillReport& r = cut->report.holes[0];
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  const HoleFillReport& r = expect_crease_split_fill(*cut, 0.5);
   EXPECT_EQ(r.creases, "6 crease crossings, 9 curves meeting at 4 corners");
-  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
-  const PatchDistances d = patch_distances(*cut);
-  EXPECT_LE(d.mean, 0.5);
-  EXPECT_LE(d.crease, 3.0);
+  EXPECT_LE(patch_distances(*cut).crease, 3.0);
 }
 
 // A ball cut into fandisk whose rim follows a ridge for five edges (ball-cut bench seed 10 cut
@@ -1266,10 +1266,7 @@ TEST(HoleCaseQuality, AStepEndingAtASidePlaneMeetsItAtFourCorners) {
 TEST(HoleCaseQuality, ACreaseTheRimFollowsForSeveralEdgesIsTheRim) {
   const auto cut = fill_one_cut("fandisk.obj", Vec3(2.42791, 13.288, -1.719), 0.981917465);
   ASSERT_TRUE(cut);
-  const HoleFillReport& r = cut->report.holes[0];
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
-  EXPECT_LE(patch_distances(*cut).mean, 3.0);
+  expect_crease_split_fill(*cut, 3.0);
 }
 
 // A ball cut that takes the whole tip of fandisk's thin wing (ball-cut bench, seed 1 cut 0): the
