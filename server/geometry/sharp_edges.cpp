@@ -1158,14 +1158,14 @@ bool join_at_four_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& ho
   };
   std::optional<Split> best;
   double best_score = std::nextafter(within, std::numeric_limits<double>::infinity());
-  // The middle corner next to end \p end (a run with a corner) along its link, towards the
-  // crossings of \p middle: where the link and the middle's bent creases come closest, with how
-  // far the farthest of them passes; none where it does not lie ahead along the link, near the
-  // hole.
   // Each (end, middle) pair once: the splits share them.
   std::map<std::pair<const RunCorners::Run*, const RunCorners::Run*>,
            std::optional<std::pair<Vec3, double>>>
       middles;
+  // The middle corner next to end \p end (a run with a corner) along its link, towards the
+  // crossings of \p middle: where the link and the middle's bent creases come closest, with how
+  // far the farthest of them passes; none where it does not lie ahead along the link, near the
+  // hole.
   const auto work_out_middle =
       [&](const RunCorners::Run& end,
           const RunCorners::Run& middle) -> std::optional<std::pair<Vec3, double>> {
