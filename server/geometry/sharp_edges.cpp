@@ -1115,6 +1115,7 @@ std::vector<Vec3> corner_edges(const Mesh& mesh, const Hole& hole, const HoleCre
       candidates.push_back(OpenMesh::dot(edge, towards - corner) < 0 ? -edge : edge);
     }
   const double off_crease_cos = std::cos(kLinkOffCreaseDeg * std::numbers::pi / 180.0);
+  const double same_cos = std::cos(std::numbers::pi / 180.0);  // edges within 1° are one
   std::vector<Vec3> out;
   for (const Vec3& edge : candidates) {
     bool off_every_crease = true;
@@ -1126,7 +1127,7 @@ std::vector<Vec3> corner_edges(const Mesh& mesh, const Hole& hole, const HoleCre
                                                  off_crease_cos * std::max(arrival.norm(), 1e-300);
     }
     const bool known = std::any_of(out.begin(), out.end(), [&](const Vec3& e) {
-      return std::abs(OpenMesh::dot(e, edge)) > std::cos(std::numbers::pi / 180.0);
+      return std::abs(OpenMesh::dot(e, edge)) > same_cos;
     });
     if (off_every_crease && !known) out.push_back(edge);
   }
