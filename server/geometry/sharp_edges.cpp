@@ -1415,7 +1415,17 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                      std::span<const std::size_t> crossings, double line_tolerance,
                      double two_corner_gain, const HermiteOptions& hermite, double tolerance,
                      const std::function<bool(const Vec3&)>& inside_hole) {
+  FaceNormals normals(mesh, 16 * hole.loop.size());
+  return join_at_corners(plan, normals, hole, crossings, line_tolerance, two_corner_gain, hermite,
+                         tolerance, inside_hole);
+}
+
+bool join_at_corners(HoleCreasePlan& plan, FaceNormals& normals, const Hole& hole,
+                     std::span<const std::size_t> crossings, double line_tolerance,
+                     double two_corner_gain, const HermiteOptions& hermite, double tolerance,
+                     const std::function<bool(const Vec3&)>& inside_hole) {
   if (crossings.size() < 2) return false;
+  const Mesh& mesh = normals.mesh();
   // Two corners need only lie near the rim's ball (RunCorners), not inside the hole's
   // projection.
   double rim_radius = 0;
@@ -1457,7 +1467,6 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
     for (const std::size_t i : both.crossings)
       if ((*both.corner - plan.crossings[i].position).norm() < half_edge) return false;
     constexpr double kMaxMedianDihedralDeg = 1.0;
-    FaceNormals normals(mesh, 16 * hole.loop.size());
     if (!(median_dihedral_near(mesh, hole, normals) < kMaxMedianDihedralDeg)) return false;
     add_corner(plan, both.crossings, *both.corner, hermite, tolerance);
     return true;
@@ -1685,6 +1694,14 @@ std::string plan_summary(const HoleCreasePlan& plan) {
 }  // namespace
 
 HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const CreaseOptions& options) {
+  // The faces around the boundary and along the creases.
+  FaceNormals normals(mesh, 16 * hole.loop.size());
+  return plan_hole_creases(normals, hole, options);
+}
+
+HoleCreasePlan plan_hole_creases(FaceNormals& normals, const Hole& hole,
+                                 const CreaseOptions& options) {
+  const Mesh& mesh = normals.mesh();
   HoleCreasePlan plan;
   const std::size_t n = hole.loop.size();
   if (n < 3) return plan;
@@ -1698,7 +1715,6 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
 
   // Weaker sharp edges are candidates too, but only as partners of a strong crossing.
   const SharpAngle weak_angle(options.partner_angle_deg);
-  FaceNormals normals(mesh, 16 * n);  // the faces around the boundary and along the creases
   std::vector<CreaseCrossing> found;
   // The crossing where the crease traced as \p polyline (points[0] the rim vertex at loop index
   // \p i) enters the hole, or none when it does not head strictly into the hole there.
@@ -2058,7 +2074,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
     return point_in_polygon(polygon, frame.project(p));
   };
   if (left.size() >= 3 && corner_side_ok &&
-      join_at_corners(plan, mesh, hole, left, options.corner_tolerance * diameter,
+      join_at_corners(plan, normals, hole, left, options.corner_tolerance * diameter,
                       options.two_corner_gain, options.hermite, tolerance, inside_hole))
     left.clear();
   if (!left.empty())
@@ -2068,7 +2084,7 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole, const Creas
                            fit_length, options.hermite, tolerance);
   // Two creases left over that end at no corner on the rim may meet inside the hole.
   if (left.size() == 2 && plan.corners.empty() &&
-      join_at_corners(plan, mesh, hole, left, options.corner_tolerance * diameter,
+      join_at_corners(plan, normals, hole, left, options.corner_tolerance * diameter,
                       options.two_corner_gain, options.hermite, tolerance, inside_hole))
     left.clear();
   plan.unmatched = left;

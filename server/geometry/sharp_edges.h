@@ -47,6 +47,7 @@
 #include <utility>
 #include <vector>
 
+#include "server/geometry/face_normals.h"
 #include "server/geometry/hermite_curve.h"
 #include "server/geometry/holes.h"
 #include "server/geometry/mesh.h"
@@ -199,6 +200,11 @@ double crease_fit_length(double perimeter, double mean_edge_length, double fit_l
 HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
                                  const CreaseOptions& options = {});
 
+//! The same, with the face normals of the mesh around the hole read from (and added to) \p
+//! normals: a fill decides the patch's shape from the same faces first.
+HoleCreasePlan plan_hole_creases(FaceNormals& normals, const Hole& hole,
+                                 const CreaseOptions& options = {});
+
 //! " meeting at a corner", " meeting at N corners", or nothing for none: for plan summaries.
 std::string meeting_at_corners(std::size_t corners);
 
@@ -252,6 +258,12 @@ bool join_at_corner(HoleCreasePlan& plan, std::span<const std::size_t> crossings
 //! vertex, and a link from it to another corner leaves from there (no corner is added for it).
 //! Returns false, \p plan unchanged, when none qualifies.
 bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
+                     std::span<const std::size_t> crossings, double line_tolerance,
+                     double two_corner_gain, const HermiteOptions& hermite, double tolerance,
+                     const std::function<bool(const Vec3&)>& inside_hole);
+
+//! The same, with the face normals around the hole read from (and added to) \p normals.
+bool join_at_corners(HoleCreasePlan& plan, FaceNormals& normals, const Hole& hole,
                      std::span<const std::size_t> crossings, double line_tolerance,
                      double two_corner_gain, const HermiteOptions& hermite, double tolerance,
                      const std::function<bool(const Vec3&)>& inside_hole);
