@@ -21,6 +21,82 @@ namespace {
 //! dense factorisation is faster than the sparse one's ordering and analysis).
 constexpr int kDenseUpTo = 128;
 
+//! The thin plate's system (k = 2 below) for a small patch, assembled dense and solved by a
+//! dense Cholesky factorisation: A = the free block of C M^-1 C, rhs = -(its fixed block) known
+//! (with a column of ones for the offset bump). \p triplets: the rows of C, row by row in
+//! ascending order. Each entry sums its terms in the order the sparse product does (over the
+//! middle index, ascending; C's duplicates in triplet order), so the result is the sparse
+//! path's bit for bit, without its matrix copies (most of a small fairing's time). False when
+//! the factorisation fails (the caller's general path then falls back to LU).
+bool solve_thin_plate_dense(const std::vector<Eigen::Triplet<double>>& triplets,
+                            const std::vector<double>& inverse_mass, int n, int n_free,
+                            const Eigen::MatrixXd& known, bool offset_bump, Eigen::MatrixXd& x) {
+  // C by rows: each row's entries sorted by column, duplicates summed in triplet order.
+  std::vector<int> row_start(static_cast<std::size_t>(n) + 1, 0);
+  for (const auto& t : triplets) ++row_start[static_cast<std::size_t>(t.row()) + 1];
+  for (int r = 0; r < n; ++r)
+    row_start[static_cast<std::size_t>(r) + 1] += row_start[static_cast<std::size_t>(r)];
+  std::vector<std::pair<int, double>> entries(triplets.size());
+  {
+    std::vector<int> next(row_start.begin(), row_start.end() - 1);
+    for (const auto& t : triplets)
+      entries[static_cast<std::size_t>(next[static_cast<std::size_t>(t.row())]++)] = {t.col(),
+                                                                                      t.value()};
+  }
+  std::vector<int> row_end(static_cast<std::size_t>(n));
+  for (int r = 0; r < n; ++r) {
+    const auto first = entries.begin() + row_start[static_cast<std::size_t>(r)];
+    const auto last = entries.begin() + row_start[static_cast<std::size_t>(r) + 1];
+    std::stable_sort(first, last, [](const auto& a, const auto& b) { return a.first < b.first; });
+    auto out = first;
+    for (auto it = first; it != last; ++it) {
+      if (out != first && std::prev(out)->first == it->first)
+        std::prev(out)->second += it->second;
+      else
+        *out++ = *it;
+    }
+    row_end[static_cast<std::size_t>(r)] = static_cast<int>(out - entries.begin());
+  }
+  const int n_fixed = n - n_free;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n_free, n_free);
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n_free, n_fixed);
+  // Which entries of B are entries of the sparse product (the others are not summed in).
+  std::vector<std::vector<int>> b_columns(static_cast<std::size_t>(n_free));
+  for (int i = 0; i < n_free; ++i)
+    for (int e = row_start[static_cast<std::size_t>(i)]; e < row_end[static_cast<std::size_t>(i)];
+         ++e) {
+      const auto [middle, c_im] = entries[static_cast<std::size_t>(e)];
+      const double m = inverse_mass[static_cast<std::size_t>(middle)];
+      for (int f = row_start[static_cast<std::size_t>(middle)];
+           f < row_end[static_cast<std::size_t>(middle)]; ++f) {
+        const auto [column, c_mc] = entries[static_cast<std::size_t>(f)];
+        const double term = c_im * (m * c_mc);
+        if (column < n_free) {
+          A(i, column) += term;
+        } else {
+          B(i, column - n_free) += term;
+          b_columns[static_cast<std::size_t>(i)].push_back(column - n_free);
+        }
+      }
+    }
+  const Eigen::LLT<Eigen::MatrixXd> cholesky(A);
+  if (cholesky.info() != Eigen::Success) return false;
+  Eigen::MatrixXd rhs(n_free, known.cols() + (offset_bump ? 1 : 0));
+  for (int i = 0; i < n_free; ++i) {
+    auto& columns = b_columns[static_cast<std::size_t>(i)];
+    std::sort(columns.begin(), columns.end());
+    columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
+    for (Eigen::Index c = 0; c < known.cols(); ++c) {
+      double sum = 0;
+      for (const int j : columns) sum += B(i, j) * known(j, c);
+      rhs(i, c) = -sum;
+    }
+  }
+  if (offset_bump) rhs.col(known.cols()).setOnes();
+  x = cholesky.solve(rhs);
+  return x.allFinite();
+}
+
 double cotangent(const Vec3& a, const Vec3& b, const Vec3& c) {  // angle at a
   const Vec3 u = b - a, w = c - a;
   const double s = OpenMesh::cross(u, w).norm();
@@ -383,28 +459,6 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
                                                     ? 1.0 / std::max(area, 1e-300)
                                                     : 1.0 / std::max(-diagonal, 1.0);
   }
-  Eigen::SparseMatrix<double> C(n, n);
-  C.setFromTriplets(triplets.begin(), triplets.end());
-  // The free rows of C, made from their triplets: a block of rows of a column-major matrix is
-  // copied entry by entry (with the copy of the product below, a third of a small fairing).
-  // The same triplets in the same order: the same sums.
-  std::erase_if(triplets, [n_free](const Eigen::Triplet<double>& t) { return t.row() >= n_free; });
-  Eigen::SparseMatrix<double> Lk(n_free, n);
-  Lk.setFromTriplets(triplets.begin(), triplets.end());
-  // The free rows of L^k x = 0, multiplied by the (invertible) free part of M, are the free rows
-  // of C (M^-1 C)^(k-1) x = 0: same solution, and the free block of that matrix is symmetric
-  // positive definite, so a Cholesky factorisation solves it (faster than LU on large
-  // patches). LU remains the fallback.
-  const Eigen::VectorXd minv = Eigen::Map<const Eigen::VectorXd>(inverse_mass.data(), n);
-  if (k > 1) {
-    const Eigen::SparseMatrix<double> MinvC = minv.asDiagonal() * C;  // scaled rows, one pass
-    for (int p = 1; p < k; ++p) {
-      Eigen::SparseMatrix<double> next = Lk * MinvC;
-      Lk = std::move(next);
-    }
-  }
-  Eigen::SparseMatrix<double> A = Lk.leftCols(n_free);
-  const Eigen::SparseMatrix<double> B = Lk.rightCols(n - n_free);
   Eigen::MatrixXd fixed(n - n_free, 3);
   for (int i = n_free; i < n; ++i)
     for (int c = 0; c < 3; ++c)
@@ -422,39 +476,66 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
   // shift instead would stand the triangles between the fixed rim and the moved vertices on
   // edge where a coarse patch meets a fine rim (measured: folds on the subdivided sphere).
   const bool offset_bump = base && options.match_facet_offset;
-  Eigen::MatrixXd rhs(n_free, known.cols() + (offset_bump ? 1 : 0));
-  rhs.leftCols(known.cols()) = -(B * known);
-  if (offset_bump) rhs.col(known.cols()).setOnes();
-  A.makeCompressed();
   Eigen::MatrixXd x;
-  bool solved = false;
-  if (n_free <= kDenseUpTo) {
-    // A small patch: a dense Cholesky factorisation costs less than the sparse one's ordering
-    // and symbolic analysis (most holes of a scan are this small).
-    const Eigen::LLT<Eigen::MatrixXd> cholesky{Eigen::MatrixXd(A)};
-    if (cholesky.info() == Eigen::Success) {
-      x = cholesky.solve(rhs);
-      solved = x.allFinite();
-    }
-  } else {
-    const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> cholesky(A);
-    if (cholesky.info() == Eigen::Success) {
-      x = cholesky.solve(rhs);
-      solved = cholesky.info() == Eigen::Success && x.allFinite();
-    }
-  }
+  bool solved = k == 2 && n_free <= kDenseUpTo &&
+                solve_thin_plate_dense(triplets, inverse_mass, n, n_free, known, offset_bump, x);
+  // The general path: sparse, any k (and the LU fallback).
   if (!solved) {
-    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
-    lu.analyzePattern(A);
-    lu.factorize(A);
-    if (lu.info() != Eigen::Success) {
-      report.failure = "fairing system is singular";
-      return report;
+    Eigen::SparseMatrix<double> C(n, n);
+    C.setFromTriplets(triplets.begin(), triplets.end());
+    // The free rows of C, made from their triplets: a block of rows of a column-major matrix is
+    // copied entry by entry (with the copy of the product below, a third of a small fairing).
+    // The same triplets in the same order: the same sums.
+    std::erase_if(triplets,
+                  [n_free](const Eigen::Triplet<double>& t) { return t.row() >= n_free; });
+    Eigen::SparseMatrix<double> Lk(n_free, n);
+    Lk.setFromTriplets(triplets.begin(), triplets.end());
+    // The free rows of L^k x = 0, multiplied by the (invertible) free part of M, are the free rows
+    // of C (M^-1 C)^(k-1) x = 0: same solution, and the free block of that matrix is symmetric
+    // positive definite, so a Cholesky factorisation solves it (faster than LU on large
+    // patches). LU remains the fallback.
+    const Eigen::VectorXd minv = Eigen::Map<const Eigen::VectorXd>(inverse_mass.data(), n);
+    if (k > 1) {
+      const Eigen::SparseMatrix<double> MinvC = minv.asDiagonal() * C;  // scaled rows, one pass
+      for (int p = 1; p < k; ++p) {
+        Eigen::SparseMatrix<double> next = Lk * MinvC;
+        Lk = std::move(next);
+      }
     }
-    x = lu.solve(rhs);
-    if (lu.info() != Eigen::Success || !x.allFinite()) {
-      report.failure = "fairing solve failed";
-      return report;
+    Eigen::SparseMatrix<double> A = Lk.leftCols(n_free);
+    const Eigen::SparseMatrix<double> B = Lk.rightCols(n - n_free);
+    Eigen::MatrixXd rhs(n_free, known.cols() + (offset_bump ? 1 : 0));
+    rhs.leftCols(known.cols()) = -(B * known);
+    if (offset_bump) rhs.col(known.cols()).setOnes();
+    A.makeCompressed();
+    if (n_free <= kDenseUpTo) {
+      // A small patch: a dense Cholesky factorisation costs less than the sparse one's ordering
+      // and symbolic analysis (most holes of a scan are this small).
+      const Eigen::LLT<Eigen::MatrixXd> cholesky{Eigen::MatrixXd(A)};
+      if (cholesky.info() == Eigen::Success) {
+        x = cholesky.solve(rhs);
+        solved = x.allFinite();
+      }
+    } else {
+      const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> cholesky(A);
+      if (cholesky.info() == Eigen::Success) {
+        x = cholesky.solve(rhs);
+        solved = cholesky.info() == Eigen::Success && x.allFinite();
+      }
+    }
+    if (!solved) {
+      Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
+      lu.analyzePattern(A);
+      lu.factorize(A);
+      if (lu.info() != Eigen::Success) {
+        report.failure = "fairing system is singular";
+        return report;
+      }
+      x = lu.solve(rhs);
+      if (lu.info() != Eigen::Success || !x.allFinite()) {
+        report.failure = "fairing solve failed";
+        return report;
+      }
     }
   }
   for (int i = 0; i < n_free; ++i) {
