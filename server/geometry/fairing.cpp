@@ -60,8 +60,6 @@ bool solve_thin_plate_dense(const std::vector<Eigen::Triplet<double>>& triplets,
   const int n_fixed = n - n_free;
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n_free, n_free);
   Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n_free, n_fixed);
-  // Which entries of B are entries of the sparse product (the others are not summed in).
-  std::vector<std::vector<int>> b_columns(static_cast<std::size_t>(n_free));
   for (int i = 0; i < n_free; ++i)
     for (int e = row_start[static_cast<std::size_t>(i)]; e < row_end[static_cast<std::size_t>(i)];
          ++e) {
@@ -75,23 +73,22 @@ bool solve_thin_plate_dense(const std::vector<Eigen::Triplet<double>>& triplets,
           A(i, column) += term;
         } else {
           B(i, column - n_free) += term;
-          b_columns[static_cast<std::size_t>(i)].push_back(column - n_free);
         }
       }
     }
   const Eigen::LLT<Eigen::MatrixXd> cholesky(A);
   if (cholesky.info() != Eigen::Success) return false;
   Eigen::MatrixXd rhs(n_free, known.cols() + (offset_bump ? 1 : 0));
-  for (int i = 0; i < n_free; ++i) {
-    auto& columns = b_columns[static_cast<std::size_t>(i)];
-    std::sort(columns.begin(), columns.end());
-    columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
+  // The sparse product sums only B's entries, in column order; a zero of the dense B (not an
+  // entry, or, never seen, one that cancelled to zero) adds a signed zero to the sum, which
+  // leaves it as it is, so skipping zeros is the same sum.
+  for (int i = 0; i < n_free; ++i)
     for (Eigen::Index c = 0; c < known.cols(); ++c) {
       double sum = 0;
-      for (const int j : columns) sum += B(i, j) * known(j, c);
+      for (int j = 0; j < n_fixed; ++j)
+        if (B(i, j) != 0.0) sum += B(i, j) * known(j, c);
       rhs(i, c) = -sum;
     }
-  }
   if (offset_bump) rhs.col(known.cols()).setOnes();
   x = cholesky.solve(rhs);
   return x.allFinite();
