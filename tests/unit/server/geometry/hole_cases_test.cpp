@@ -860,6 +860,22 @@ TEST(HoleCasesShape, NearTheBalloonLimitTheOtherMethodIsFaired) {
   EXPECT_LE(r.fair_bulge, FillOptions{}.max_fair_bulge);
 }
 
+// A fifth past the limit the surroundings decide: mech-holes-shark's hole 1 balloons 0.61 hole
+// radii as the planar triangulation's faired patch (the 3D triangulation's rose 0.60), so the
+// 3D triangulation's faired patch is not built and the planar patch is kept flat.
+TEST(HoleCasesShape, WellPastTheBalloonLimitNoOtherMethodIsFaired) {
+  const auto fill = fill_real_hole("mech-holes-shark_real", 1);
+  ASSERT_TRUE(fill);
+  const HoleFillReport& r = fill->report.holes[0];
+  EXPECT_EQ(r.shape, PatchShape::Flat) << r.shape_reason;
+  EXPECT_EQ(r.method, FillMethod::Planar);
+  EXPECT_GT(r.fair_bulge, 1.2 * FillOptions{}.max_fair_bulge);
+  bool skipped = false;
+  for (const auto& w : r.warnings)
+    skipped = skipped || w.find("minimum-weight-3d: not faired") != std::string::npos;
+  EXPECT_TRUE(skipped);
+}
+
 // stanford-bunny's real hole 1884 has a 55° rim corner between edges 0.00035 and 0.0030 long:
 // only a fan of three triangles at that corner, each within a degree of 15° and growing by
 // about 2.06, gets every angle to 15° (11.7° before the graded refinement's corner fans).
