@@ -103,12 +103,15 @@ template <typename OnCrossing>
 void for_each_face_crossed(const Mesh& mesh, const FaceIndex& index, const TrianglePoints& points,
                            const std::array<int, 3>& ids, OnCrossing&& on_crossing) {
   bool more = true;
+  std::optional<PreparedTriangle> prepared;  // at the first candidate, for all of them
   index.for_each_in_box(mesh, triangle_box(points), [&](FaceHandle f) {
     if (!more) return;
     TrianglePoints other;
     std::array<int, 3> other_ids;
     face_corners(mesh, f, other, other_ids);
-    if (triangles_intersect(points, ids, other, other_ids)) more = on_crossing(other, other_ids);
+    if (!prepared) prepared = prepare_triangle(points, ids);
+    if (triangles_intersect(*prepared, prepare_triangle(other, other_ids)))
+      more = on_crossing(other, other_ids);
   });
 }
 
@@ -206,10 +209,16 @@ std::vector<std::size_t> triangles_crossing(
   for (std::size_t t = 0; t < triangles.size(); ++t) bad[t] = *verdicts[t] ? 1 : 0;
   std::vector<Box3> boxes(triangles.size());
   for (std::size_t t = 0; t < triangles.size(); ++t) boxes[t] = triangle_box(points[t]);
+  // Each triangle prepared once, at its first pair whose boxes meet (the same tests as on the
+  // points).
+  std::vector<std::optional<PreparedTriangle>> prepared(triangles.size());
+  const auto prepared_of = [&](std::size_t t) -> const PreparedTriangle& {
+    if (!prepared[t]) prepared[t] = prepare_triangle(points[t], ids[t]);
+    return *prepared[t];
+  };
   for (std::size_t t = 0; t < triangles.size(); ++t)
     for (std::size_t u = t + 1; u < triangles.size(); ++u)
-      if (boxes[t].intersects(boxes[u]) &&
-          triangles_intersect(points[t], ids[t], points[u], ids[u]))
+      if (boxes[t].intersects(boxes[u]) && triangles_intersect(prepared_of(t), prepared_of(u)))
         bad[t] = bad[u] = 1;
   std::vector<std::size_t> out;
   for (std::size_t t = 0; t < triangles.size(); ++t)

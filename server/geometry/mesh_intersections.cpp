@@ -372,6 +372,10 @@ std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
   for (const TrianglePoints& t : triangles) region.extend(triangle_box(t));
   const TriangleBvh tree(std::vector<TrianglePoints>(triangles.begin(), triangles.end()));
   std::vector<char> crossing(triangles.size(), 0);
+  // Each triangle prepared once, each face near them at its first candidate (the same tests as
+  // triangles_intersect on the points; preparing both for every pair was half of a complex
+  // hole's 3D triangulation, hand_sml #2).
+  std::vector<std::optional<PreparedTriangle>> prepared(triangles.size());
   const double reach_edge = reach.longest_edge;
   for_each_face_near(
       mesh, region, reach,
@@ -379,8 +383,12 @@ std::vector<std::size_t> triangles_crossing_mesh(const Mesh& mesh,
         return tree.overlaps_any(Box3(q.array() - reach_edge, q.array() + reach_edge));
       },
       [&](FaceHandle, const TrianglePoints& t, const std::array<int, 3>& g_ids) {
+        std::optional<PreparedTriangle> face;
         tree.query_box(triangle_box(t), [&](std::uint32_t c) {
-          if (!crossing[c] && triangles_intersect(triangles[c], ids[c], t, g_ids)) crossing[c] = 1;
+          if (crossing[c]) return;
+          if (!prepared[c]) prepared[c] = prepare_triangle(triangles[c], ids[c]);
+          if (!face) face = prepare_triangle(t, g_ids);
+          if (triangles_intersect(*prepared[c], *face)) crossing[c] = 1;
         });
         return true;
       });
