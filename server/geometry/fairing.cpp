@@ -31,6 +31,9 @@ constexpr int kDenseUpTo = 128;
 bool solve_thin_plate_dense(const std::vector<Eigen::Triplet<double>>& triplets,
                             const std::vector<double>& inverse_mass, int n, int n_free,
                             const Eigen::MatrixXd& known, bool offset_bump, Eigen::MatrixXd& x) {
+  // known: the points' 3 columns, and a base surface's deviation.
+  constexpr Eigen::Index kMaxKnownColumns = 4;
+  if (known.cols() > kMaxKnownColumns) return false;
   // C by rows: each row's entries sorted by column, duplicates summed in triplet order.
   std::vector<int> row_start(static_cast<std::size_t>(n) + 1, 0);
   for (const auto& t : triplets) ++row_start[static_cast<std::size_t>(t.row()) + 1];
@@ -59,7 +62,9 @@ bool solve_thin_plate_dense(const std::vector<Eigen::Triplet<double>>& triplets,
   }
   const int n_fixed = n - n_free;
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n_free, n_free);
-  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n_free, n_fixed);
+  // Row-major: the right-hand side below reads it row by row.
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> B =
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>::Zero(n_free, n_fixed);
   for (int i = 0; i < n_free; ++i)
     for (int e = row_start[static_cast<std::size_t>(i)]; e < row_end[static_cast<std::size_t>(i)];
          ++e) {
@@ -82,13 +87,18 @@ bool solve_thin_plate_dense(const std::vector<Eigen::Triplet<double>>& triplets,
   // The sparse product sums only B's entries, in column order; a zero of the dense B (not an
   // entry, or, never seen, one that cancelled to zero) adds a signed zero to the sum, which
   // leaves it as it is, so skipping zeros is the same sum.
-  for (int i = 0; i < n_free; ++i)
-    for (Eigen::Index c = 0; c < known.cols(); ++c) {
-      double sum = 0;
-      for (int j = 0; j < n_fixed; ++j)
-        if (B(i, j) != 0.0) sum += B(i, j) * known(j, c);
-      rhs(i, c) = -sum;
+  const Eigen::Index columns = known.cols();
+  std::array<double, kMaxKnownColumns> sums;
+  for (int i = 0; i < n_free; ++i) {
+    sums.fill(0.0);
+    for (int j = 0; j < n_fixed; ++j) {
+      const double b = B(i, j);
+      if (b == 0.0) continue;
+      for (Eigen::Index c = 0; c < columns; ++c)
+        sums[static_cast<std::size_t>(c)] += b * known(j, c);
     }
+    for (Eigen::Index c = 0; c < columns; ++c) rhs(i, c) = -sums[static_cast<std::size_t>(c)];
+  }
   if (offset_bump) rhs.col(known.cols()).setOnes();
   x = cholesky.solve(rhs);
   return x.allFinite();
