@@ -17,10 +17,6 @@
 namespace touchmend::geometry {
 namespace {
 
-//! Free vertices up to which the fairing system is solved dense (measured: below this the
-//! dense factorisation is faster than the sparse one's ordering and analysis).
-constexpr int kDenseUpTo = 128;
-
 //! The thin plate's system (k = 2 below) for a small patch, assembled dense and solved by a
 //! dense Cholesky factorisation: A = the free block of C M^-1 C, rhs = -(its fixed block) known
 //! (with a column of ones for the offset bump). \p triplets: the rows of C, row by row in
@@ -484,7 +480,7 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
   // edge where a coarse patch meets a fine rim (measured: folds on the subdivided sphere).
   const bool offset_bump = base && options.match_facet_offset;
   Eigen::MatrixXd x;
-  bool solved = k == 2 && n_free <= kDenseUpTo &&
+  bool solved = k == 2 && n_free <= options.dense_up_to && options.direct_dense_assembly &&
                 solve_thin_plate_dense(triplets, inverse_mass, n, n_free, known, offset_bump, x);
   // The general path: sparse, any k (and the LU fallback).
   if (!solved) {
@@ -515,7 +511,7 @@ FairingReport fair_vertices(Mesh& mesh, std::span<const VertexHandle> free_verti
     rhs.leftCols(known.cols()) = -(B * known);
     if (offset_bump) rhs.col(known.cols()).setOnes();
     A.makeCompressed();
-    if (n_free <= kDenseUpTo) {
+    if (n_free <= options.dense_up_to) {
       // A small patch: a dense Cholesky factorisation costs less than the sparse one's ordering
       // and symbolic analysis (most holes of a scan are this small).
       const Eigen::LLT<Eigen::MatrixXd> cholesky{Eigen::MatrixXd(A)};

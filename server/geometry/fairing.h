@@ -48,6 +48,15 @@ struct FairingOptions {
   //! Unset: faces with a free corner are the patch, and faces with every corner on the rim are
   //! left out of both.
   std::function<bool(FaceHandle)> in_patch;
+  //! Free vertices up to which the system is solved by a dense factorisation; above, by a
+  //! sparse one. Measured: below 128 the dense factorisation is faster than the sparse one's
+  //! ordering and analysis.
+  int dense_up_to = 128;
+  //! A thin plate solved dense is summed straight from the operator's rows, each entry's terms
+  //! in the order the sparse product sums them: the same system bit for bit, without the
+  //! sparse matrices (most of a small fairing's time). False: through the sparse product (for
+  //! comparison).
+  bool direct_dense_assembly = true;
 };
 
 struct FairingReport {
