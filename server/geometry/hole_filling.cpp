@@ -1103,6 +1103,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   bool artefact_folds = false;
   // The normals of the faces around the hole, for the shape decision and the crease plan
   // (which read most of the same faces; it grows if they read more).
+  const auto plan_start = Clock::now();
   FaceNormals normals(mesh, 16 * hole.loop.size());
   if (options.shape == PatchShape::Auto) {
     decision = decide_shape(normals, hole, options);
@@ -1124,6 +1125,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     creases = plan_hole_creases(normals, hole, options.creases);
     report.creases = creases->summary;
   }
+  const double plan_seconds = seconds_since(plan_start);
   if (!options.methods.empty())
     methods = options.methods;
   else if (decision.feature)
@@ -1258,6 +1260,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       attempts.push_back({m, false, wants_fair(methods[m])});
     }
   HoleFillReport::Phases attempt_phases;  // summed over the attempts
+  attempt_phases.plan = plan_seconds;
   // A faired patch of the whole hole that balloons well past the limit says more about the
   // boundary and its surroundings (the tangents open outwards) than about the triangulation:
   // the other methods' faired patches of the whole hole rise as far (hand #2: 0.85 and 1.68

@@ -158,12 +158,14 @@ struct HoleFillReport {
   double seconds = 0;
   //! Where the time went (all attempts; seconds): what a slow fill spent it on.
   struct Phases {
+    double plan = 0;         //!< the shape decision and the crease plan (once per hole)
     double triangulate = 0;  //!< the triangulations of every method tried
     double refine = 0;       //!< Algorithm III
     double mend = 0;         //!< patch_quality
     double fair = 0;         //!< the fairing solves
     double check = 0;        //!< gathering the faces near the hole, and the intersection checks
     Phases& operator+=(const Phases& other) {
+      plan += other.plan;
       triangulate += other.triangulate;
       refine += other.refine;
       mend += other.mend;
