@@ -1,6 +1,7 @@
 #include "server/geometry/sharp_edges.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <initializer_list>
@@ -1000,6 +1001,34 @@ std::optional<Vec3> edge_of_outer_faces(const Mesh& mesh, const Hole& hole,
   return OpenMesh::dot(edge, towards - corner) < 0 ? -edge : edge;
 }
 
+//! Where the links (rays from corners: origin, direction) and the bent creases of \p
+//! crossings come closest: meeting_point from the point nearest all their lines, scaled by its
+//! distance from the first link's corner. None where their lines fix no point. A middle corner
+//! of three or four in a row, which its creases alone cannot place.
+std::optional<Vec3> meeting_of_links_and_creases(const HoleCreasePlan& plan,
+                                                 std::span<const std::pair<Vec3, Vec3>> links,
+                                                 std::span<const std::size_t> crossings) {
+  std::vector<Vec3> origins, directions;
+  for (const auto& [origin, direction] : links) {
+    origins.push_back(origin);
+    directions.push_back(direction);
+  }
+  for (const std::size_t i : crossings) {
+    origins.push_back(plan.crossings[i].position);
+    directions.push_back(plan.crossings[i].inward);
+  }
+  const std::optional<Vec3> start = nearest_point_to_lines(origins, directions);
+  if (!start) return std::nullopt;
+  return meeting_point(*start, (*start - links.front().first).norm(),
+                       [&](const Vec3& x, std::vector<CurveProjection>& out) {
+                         out.clear();
+                         for (const auto& [origin, direction] : links)
+                           out.push_back(project_on_ray(origin, direction, x));
+                         for (const std::size_t k : crossings)
+                           out.push_back(project_on_bent_crease(plan.crossings[k], x));
+                       });
+}
+
 //! Five or more creases left over may meet at three corners in a row, A - B - C
 //! (couplingdown_sharp #2: two top creases meet at A, from which a vertical edge drops to B,
 //! where one chamfer crease ends, and a short edge leads on to C, where the other chamfer
@@ -1042,30 +1071,15 @@ bool join_at_three_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& h
         const auto link_a = edge_of_outer_faces(mesh, hole, plan, a.crossings, *a.corner, towards);
         const auto link_c = edge_of_outer_faces(mesh, hole, plan, c.crossings, *c.corner, towards);
         if (!link_a || !link_c) continue;
-        // B: the bent creases of its run and the two links, from the point nearest all of
-        // their lines.
-        std::vector<Vec3> origins{*a.corner, *c.corner};
-        std::vector<Vec3> directions{*link_a, *link_c};
-        for (const std::size_t i : b.crossings) {
-          origins.push_back(plan.crossings[i].position);
-          directions.push_back(plan.crossings[i].inward);
-        }
-        const std::optional<Vec3> start_b = nearest_point_to_lines(origins, directions);
-        if (!start_b) continue;
-        const auto on_link = [&](std::size_t k, const Vec3& x) {
-          return project_on_ray(origins[k], directions[k], x);
-        };
-        // Scaled by B's distance from A.
+        // B: where the bent creases of its run and the two links come closest.
+        const std::array<std::pair<Vec3, Vec3>, 2> links{
+            {{*a.corner, *link_a}, {*c.corner, *link_c}}};
         const std::optional<Vec3> meeting_b =
-            meeting_point(*start_b, (*start_b - *a.corner).norm(),
-                          [&](const Vec3& x, std::vector<CurveProjection>& out) {
-                            out.clear();
-                            out.push_back(on_link(0, x));
-                            out.push_back(on_link(1, x));
-                            for (const std::size_t k : b.crossings)
-                              out.push_back(project_on_bent_crease(plan.crossings[k], x));
-                          });
+            meeting_of_links_and_creases(plan, links, b.crossings);
         if (!meeting_b) continue;
+        const auto on_link = [&](std::size_t k, const Vec3& x) {
+          return project_on_ray(links[k].first, links[k].second, x);
+        };
         const Vec3& corner_b = *meeting_b;
         if (!runs.near_hole(corner_b) || !(OpenMesh::dot(corner_b - *a.corner, *link_a) > 0) ||
             !(OpenMesh::dot(corner_b - *c.corner, *link_c) > 0))
@@ -1181,22 +1195,9 @@ bool join_at_four_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& ho
         // The edge's way is the one along which the middle's creases reach it (the middle's
         // crossings may lie off to the side of the link: the step's creases cross the hole
         // towards the side face that holds the links).
-        std::vector<Vec3> origins{*end.corner};
-        std::vector<Vec3> directions{link};
-        for (const std::size_t i : middle.crossings) {
-          origins.push_back(plan.crossings[i].position);
-          directions.push_back(plan.crossings[i].inward);
-        }
-        const std::optional<Vec3> start = nearest_point_to_lines(origins, directions);
-        if (!start) continue;
+        const std::pair<Vec3, Vec3> from_end{*end.corner, link};
         const std::optional<Vec3> meeting =
-            meeting_point(*start, (*start - *end.corner).norm(),
-                          [&](const Vec3& x, std::vector<CurveProjection>& out) {
-                            out.clear();
-                            out.push_back(project_on_ray(*end.corner, link, x));
-                            for (const std::size_t k : middle.crossings)
-                              out.push_back(project_on_bent_crease(plan.crossings[k], x));
-                          });
+            meeting_of_links_and_creases(plan, {&from_end, 1}, middle.crossings);
         if (!meeting || !runs.near_enough(middle.crossings, *meeting) ||
             !(OpenMesh::dot(*meeting - *end.corner, link) > 0))
           continue;
