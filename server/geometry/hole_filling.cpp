@@ -817,11 +817,13 @@ constexpr std::string_view kNothingToFair = "no interior vertices to fair";
 //! faired patch's (see mend below).
 //! Returns why the faired shape was refused (a balloon, a singular system), or an empty string.
 //! \p face_regions receives each final face's region (aligned with \p faces).
+//! \p unmended_min_angle, if given, receives a flat patch's smallest angle (degrees) after the
+//! refinement and before the mending (a faired patch's is left alone).
 std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHandle>& faces,
                                 std::vector<int>& face_regions, std::vector<VertexHandle>& vertices,
                                 const std::vector<int>& face_pieces, std::size_t pieces, bool fair,
                                 bool mend_folds, bool collapse_early, const FillOptions& options,
-                                HoleFillReport& report) {
+                                HoleFillReport& report, double* unmended_min_angle = nullptr) {
   pieces = std::max<std::size_t>(pieces, 1);
   std::vector<std::vector<FaceHandle>> piece_faces(pieces);
   for (std::size_t i = 0; i < faces.size(); ++i) {
@@ -918,6 +920,11 @@ std::string build_patch_surface(Mesh& mesh, const Hole& hole, std::vector<FaceHa
   };
   report.shape = PatchShape::Flat;
   if (!fair) {
+    if (unmended_min_angle != nullptr && options.improve_quality) {
+      double worst = 180;
+      for (const auto& list : piece_faces) worst = std::min(worst, min_angle_deg(mesh, list));
+      *unmended_min_angle = worst;
+    }
     mend(/*keep_surface=*/true);
     gather();
     flip_slivers();
@@ -1204,6 +1211,10 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     bool membrane = false;
     //! A flat stand-in built again after the membrane tried in its place did no better.
     bool rebuilt = false;
+    //! The unmended build of a flat patch whose mending ended below the angle it started from
+    //! (see below), or the mended one built again after that did no better.
+    bool versus_mended = false;
+    bool remended = false;
     //! How far a flat patch is mended (a patch that crossed the mesh is built again with less
     //! mending, see below).
     enum class Mending { Full, FoldsKept, None } mending = Mending::Full;
@@ -1291,6 +1302,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // (FillOptions::membrane_fallback), which the 3D mending can give that angle; the one with
   // the larger smallest angle is kept.
   double set_aside_flat_angle = -1;
+  double set_aside_mended_angle = -1;
   // A hole over the 3D triangulation's size limit that no other method could close gets it
   // anyway, as a last resort: the limit keeps its O(n^3) tables out of fills another method
   // does well (measured with the limit at 1,000 for every hole on the large random cuts of
@@ -1438,9 +1450,11 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       }
       const bool mend_folds = step.mending == Attempt::Mending::Full &&
                               (pass == 1 || method == FillMethod::CreaseSplit || artefact_folds);
+      double unmended_angle = -1;
       std::string refused = build_patch_surface(
           mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces, fair, mend_folds,
-          step.collapse_early, attempt_options ? *attempt_options : options, attempt);
+          step.collapse_early, attempt_options ? *attempt_options : options, attempt,
+          &unmended_angle);
       if (fair && !step.membrane) last_bulge = attempt.fair_bulge;
       if (whole_hole_fairing(m, fair) && !step.membrane &&
           attempt.fair_bulge > kClearBalloon * options.max_fair_bulge)
@@ -1503,7 +1517,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       const double worst_angle = refused.empty() ? min_angle_deg(mesh, faces) : 0.0;
       if (refused.empty() && !step.accept_degenerate && worst_angle < kDegenerateAngleDeg) {
         refused = fmt::format("it leaves a degenerate triangle ({:.3f}°)", worst_angle);
-        if (!degenerate_attempt) {
+        if (!degenerate_attempt && !step.versus_mended) {
           degenerate_attempt = step;
           degenerate_attempt->method = m;  // resolved (kFirstCrossed)
           degenerate_attempt->accept_degenerate = true;
@@ -1528,6 +1542,30 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
                         {membrane, rebuilt});
         continue;
       }
+      // The mending of a flat patch may end below the angle the refined triangulation had: its
+      // bisections are taken even where they make the triangles worse for the smoothing to
+      // mend, and across a bent rim the smoothing cannot (hand random cut s1c7 hole 717, a
+      // 13-edge flat stand-in: 14.9° refined, 5.5° mended). Such a patch is set aside for the
+      // same triangulation not mended, and the one with the larger smallest angle is kept.
+      if (refused.empty() && step.versus_mended && worst_angle <= set_aside_mended_angle)
+        refused = fmt::format(
+            "not mended, its smallest angle {:.1f} deg is no larger than the mended patch's "
+            "{:.1f} deg",
+            worst_angle, set_aside_mended_angle);
+      if (refused.empty() && !fair && !step.versus_mended && !step.remended &&
+          step.mending != Attempt::Mending::None && !step.accept_degenerate &&
+          worst_angle < kRescueBelowDeg && unmended_angle > worst_angle) {
+        remove_patch(mesh, faces, vertices);
+        set_aside_mended_angle = worst_angle;
+        Attempt plain = step;
+        plain.mending = Attempt::Mending::None;
+        plain.versus_mended = true;
+        Attempt again = step;
+        again.remended = true;
+        attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
+                        {plain, again});
+        continue;
+      }
       if (!refused.empty()) {
         remove_patch(mesh, faces, vertices);
         if (fair) {
@@ -1550,7 +1588,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
             attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
                             Attempt{m, false, true});
           refused_fair[m] = 1;
-        } else {
+        } else if (!step.versus_mended) {
           failures.push_back(
               fmt::format("{}{}: {}", method_name(m),
                           step.mending == Attempt::Mending::FoldsKept ? " (again, its folds kept)"
@@ -1558,7 +1596,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
                                                                       : "",
                           refused));
           dead[m] = 1;
-        }
+        }  // an unmended build that did no better: the mended one is built again next
         continue;
       }
       if (method == FillMethod::CreaseSplit) {
@@ -1589,6 +1627,9 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (step.mending == Attempt::Mending::FoldsKept)
         attempt.shape_reason +=
             "; the triangulation's folds kept (mended across, the patch crossed the mesh)";
+      else if (step.versus_mended)
+        attempt.shape_reason += fmt::format(
+            "; not mended (mended, its smallest angle was {:.1f} deg)", set_aside_mended_angle);
       else if (step.mending == Attempt::Mending::None)
         attempt.shape_reason += "; not mended (mended, the patch crossed the mesh)";
       if (attempt.shape == PatchShape::Fair && !attempt.fair_base.empty())

@@ -1426,6 +1426,35 @@ TEST(HoleCasesRandom, AHoleWhoseAvoidingRoundsRunOutIsClosedByForbiddingFans) {
   EXPECT_TRUE(found);
 }
 
+// Four balls cut out of hand (the ball-cut bench's seed 1, cut 7) leave a 13-edge hole whose
+// faired patches have no vertex to fair: the flat stand-in is the planar triangulation, 14.9°
+// at its worst, and its mending (bisections across the bent rim, which the smoothing could
+// not mend) took it to 5.5°. The unmended build is kept when its smallest angle is the larger.
+TEST(HoleCasesRandom, AFlatPatchWhoseMendingEndsWorseIsKeptUnmended) {
+  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/hand.off");
+  ASSERT_TRUE(read.ok) << read.error;
+  const std::vector<std::pair<Vec3, double>> balls{
+      {Vec3(-0.0960384, 0.194568, 0.365899), 0.0742741242},
+      {Vec3(-0.425191, 0.0438089, 0.0271768), 0.112256384},
+      {Vec3(0.139733, -0.0591163, 0.128504), 0.0774225682},
+      {Vec3(0.0534142, -0.0542121, 0.125417), 0.0526210759}};
+  const MeshSoup holed = testing::remove_faces(read.soup, [&](const Vec3& c) {
+    return std::any_of(balls.begin(), balls.end(),
+                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
+  });
+  bool found = false;
+  for (const HoleFillReport& r : fill_all_checked(holed).holes) {
+    EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
+    if (r.boundary_vertices != 13) continue;
+    found = true;
+    EXPECT_EQ(r.shape, PatchShape::Flat);
+    EXPECT_GE(r.min_angle_deg, 14.5);  // 5.5° mended
+    EXPECT_NE(r.shape_reason.find("not mended (mended, its smallest angle was"), std::string::npos)
+        << r.shape_reason;
+  }
+  EXPECT_TRUE(found);
+}
+
 // Five balls cut out of fandisk (the ball-cut bench's seed 10, cut 6) leave a 132-edge hole with
 // ten crease crossings: two pairs and six creases that meet at two corners, one of them past
 // the rim's ball (a wing's tip). The split along all nine curves crosses the mesh, and so does
