@@ -1062,6 +1062,25 @@ Box3 hole_region(const Hole& hole, const LoopData& loop) {
   return region;
 }
 
+//! The smallest angle between two consecutive boundary edges of \p hole (degrees). Under 15°
+//! the rim turns back on itself there: a corner narrower than any triangle at it may be wide,
+//! or a slit; the faired patch's second build without bisections (fill_disk_hole) is not tried.
+double smallest_rim_corner_deg(const Mesh& mesh, const Hole& hole) {
+  const std::size_t n = hole.loop.size();
+  double smallest = 180;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 p = mesh.point(hole.loop[i]);
+    const Vec3 a = mesh.point(hole.loop[(i + n - 1) % n]) - p;
+    const Vec3 b = mesh.point(hole.loop[(i + 1) % n]) - p;
+    const double la = a.norm(), lb = b.norm();
+    if (!(la > 0) || !(lb > 0)) return 0;
+    smallest =
+        std::min(smallest, std::acos(std::clamp(OpenMesh::dot(a, b) / (la * lb), -1.0, 1.0)) *
+                               180.0 / std::numbers::pi);
+  }
+  return smallest;
+}
+
 //! fill_hole of a hole whose loop passes each vertex once (fill_hole_cached closes pinches
 //! first), with the search reach kept across holes (the new faces are filed in it).
 //! \p explain_open: when the hole stays open, look for what around it keeps every patch out
@@ -1215,6 +1234,10 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     //! (see below), or the mended one built again after that did no better.
     bool versus_mended = false;
     bool remended = false;
+    //! The same for a faired patch: built again with no bisections in the mending before its
+    //! fairing, or built again as it was after that did no better (see below).
+    bool unbisected = false;
+    bool rebisected = false;
     //! How far a flat patch is mended (a patch that crossed the mesh is built again with less
     //! mending, see below).
     enum class Mending { Full, FoldsKept, None } mending = Mending::Full;
@@ -1303,6 +1326,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   // the larger smallest angle is kept.
   double set_aside_flat_angle = -1;
   double set_aside_mended_angle = -1;
+  double set_aside_bisected_angle = -1;
   // A hole over the 3D triangulation's size limit that no other method could close gets it
   // anyway, as a last resort: the limit keeps its O(n^3) tables out of fills another method
   // does well (measured with the limit at 1,000 for every hole on the large random cuts of
@@ -1448,6 +1472,10 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         attempt_options = options;
         attempt_options->improve_quality = false;
       }
+      if (step.unbisected) {
+        if (!attempt_options) attempt_options = options;
+        attempt_options->quality.bisect = false;
+      }
       const bool mend_folds = step.mending == Attempt::Mending::Full &&
                               (pass == 1 || method == FillMethod::CreaseSplit || artefact_folds);
       double unmended_angle = -1;
@@ -1455,8 +1483,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
           mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces, fair, mend_folds,
           step.collapse_early, attempt_options ? *attempt_options : options, attempt,
           &unmended_angle);
-      if (fair && !step.membrane) last_bulge = attempt.fair_bulge;
-      if (whole_hole_fairing(m, fair) && !step.membrane &&
+      if (fair && !step.membrane && !step.unbisected) last_bulge = attempt.fair_bulge;
+      if (whole_hole_fairing(m, fair) && !step.membrane && !step.unbisected &&
           attempt.fair_bulge > kClearBalloon * options.max_fair_bulge)
         balloon_bulge = attempt.fair_bulge;
       // A simple hole's patch that projects injectively onto the hole's reference plane cannot
@@ -1498,7 +1526,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (crosses)
         refused = fair ? "the faired patch would intersect the mesh"
                        : "the new faces would intersect existing faces";
-      if (crosses && fair && !step.membrane) crossed_fair[m] = 1;
+      if (crosses && fair && !step.membrane && !step.unbisected) crossed_fair[m] = 1;
       if (crosses && !fair && options.improve_quality && step.mending != Attempt::Mending::None) {
         Attempt again = step;
         again.method = m;  // resolved (kFirstCrossed)
@@ -1517,7 +1545,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       const double worst_angle = refused.empty() ? min_angle_deg(mesh, faces) : 0.0;
       if (refused.empty() && !step.accept_degenerate && worst_angle < kDegenerateAngleDeg) {
         refused = fmt::format("it leaves a degenerate triangle ({:.3f}°)", worst_angle);
-        if (!degenerate_attempt && !step.versus_mended) {
+        if (!degenerate_attempt && !step.versus_mended && !step.unbisected) {
           degenerate_attempt = step;
           degenerate_attempt->method = m;  // resolved (kFirstCrossed)
           degenerate_attempt->accept_degenerate = true;
@@ -1558,13 +1586,43 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         remove_patch(mesh, faces, vertices);
         set_aside_mended_angle = worst_angle;
         Attempt plain = step;
+        plain.method = m;  // resolved (kFirstCrossed)
         plain.mending = Attempt::Mending::None;
         plain.versus_mended = true;
         Attempt again = step;
+        again.method = m;
         again.remended = true;
         attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
                         {plain, again});
         continue;
+      }
+      // A faired patch mended without bisections before its fairing is coarser (farther from a
+      // curved surface): kept when it reaches DESIGN's 15° or gains a whole degree.
+      if (refused.empty() && step.unbisected &&
+          !(worst_angle > set_aside_bisected_angle &&
+            (worst_angle >= kRescueBelowDeg || worst_angle >= set_aside_bisected_angle + 1.0)))
+        refused = fmt::format(
+            "mended without bisections, its smallest angle {:.1f} deg is not enough above {:.1f} "
+            "deg",
+            worst_angle, set_aside_bisected_angle);
+      if (refused.empty() && fair && !step.membrane && !step.unbisected && !step.rebisected &&
+          !step.accept_degenerate && options.improve_quality && options.quality.bisect &&
+          worst_angle < kRescueBelowDeg && smallest_rim_corner_deg(mesh, hole) >= kRescueBelowDeg) {
+        remove_patch(mesh, faces, vertices);
+        set_aside_bisected_angle = worst_angle;
+        Attempt plain = step;
+        plain.method = m;  // resolved (kFirstCrossed: a retry is not queued twice)
+        plain.unbisected = true;
+        Attempt again = plain;
+        again.unbisected = false;
+        again.rebisected = true;
+        attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
+                        {plain, again});
+        continue;
+      }
+      if (!refused.empty() && step.unbisected) {
+        remove_patch(mesh, faces, vertices);
+        continue;  // the patch as first built comes next
       }
       if (!refused.empty()) {
         remove_patch(mesh, faces, vertices);
@@ -1627,6 +1685,11 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (step.mending == Attempt::Mending::FoldsKept)
         attempt.shape_reason +=
             "; the triangulation's folds kept (mended across, the patch crossed the mesh)";
+      else if (step.unbisected)
+        attempt.shape_reason += fmt::format(
+            "; mended without bisections before fairing (with them, its smallest angle was {:.1f} "
+            "deg)",
+            set_aside_bisected_angle);
       else if (step.versus_mended)
         attempt.shape_reason += fmt::format(
             "; not mended (mended, its smallest angle was {:.1f} deg)", set_aside_mended_angle);
