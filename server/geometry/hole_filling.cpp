@@ -1556,18 +1556,24 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
             "the membrane's smallest angle {:.1f} deg is no larger than the flat "
             "stand-in's {:.1f} deg",
             worst_angle, set_aside_flat_angle);
+      // This patch is taken out and set aside (its smallest angle in \p angle) for \p rival,
+      // after which \p again builds it anew if the rival did no better.
+      const auto set_aside_for = [&](double& angle, Attempt rival, Attempt again) {
+        remove_patch(mesh, faces, vertices);
+        angle = worst_angle;
+        rival.method = again.method = m;  // resolved (kFirstCrossed: a retry is queued once)
+        attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
+                        {rival, again});
+      };
       if (refused.empty() && options.membrane_fallback && !fair && step.fallback && !step.rebuilt &&
           step.mending == Attempt::Mending::Full && whole_hole_fairing(m, true) &&
           worst_angle < kRescueBelowDeg) {
-        remove_patch(mesh, faces, vertices);
-        set_aside_flat_angle = worst_angle;
         Attempt membrane = step;
         membrane.fair = true;
         membrane.membrane = true;
         Attempt rebuilt = step;
         rebuilt.rebuilt = true;
-        attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
-                        {membrane, rebuilt});
+        set_aside_for(set_aside_flat_angle, membrane, rebuilt);
         continue;
       }
       // The mending of a flat patch may end below the angle the refined triangulation had: its
@@ -1583,17 +1589,12 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (refused.empty() && !fair && !step.versus_mended && !step.remended &&
           step.mending != Attempt::Mending::None && !step.accept_degenerate &&
           worst_angle < kRescueBelowDeg && unmended_angle > worst_angle) {
-        remove_patch(mesh, faces, vertices);
-        set_aside_mended_angle = worst_angle;
         Attempt plain = step;
-        plain.method = m;  // resolved (kFirstCrossed)
         plain.mending = Attempt::Mending::None;
         plain.versus_mended = true;
         Attempt again = step;
-        again.method = m;
         again.remended = true;
-        attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
-                        {plain, again});
+        set_aside_for(set_aside_mended_angle, plain, again);
         continue;
       }
       // A faired patch mended without bisections before its fairing is coarser (farther from a
@@ -1608,16 +1609,11 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       if (refused.empty() && fair && !step.membrane && !step.unbisected && !step.rebisected &&
           !step.accept_degenerate && options.improve_quality && options.quality.bisect &&
           worst_angle < kRescueBelowDeg && smallest_rim_corner_deg(mesh, hole) >= kRescueBelowDeg) {
-        remove_patch(mesh, faces, vertices);
-        set_aside_bisected_angle = worst_angle;
         Attempt plain = step;
-        plain.method = m;  // resolved (kFirstCrossed: a retry is not queued twice)
         plain.unbisected = true;
-        Attempt again = plain;
-        again.unbisected = false;
+        Attempt again = step;
         again.rebisected = true;
-        attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
-                        {plain, again});
+        set_aside_for(set_aside_bisected_angle, plain, again);
         continue;
       }
       if (!refused.empty() && step.unbisected) {

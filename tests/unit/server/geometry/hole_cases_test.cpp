@@ -1305,6 +1305,15 @@ TEST(HoleCaseQuality, ATipCutOffAWingGetsItsCornersBack) {
   EXPECT_LE(d.crease, 3.0);
 }
 
+//! \p soup without the faces whose centroid lies inside any of \p balls (centre, radius): the
+//! ball-cut bench's cuts (`touchmend-cut-bench --only MESH:SEED:CUT` prints a cut's balls).
+MeshSoup cut_out_balls(const MeshSoup& soup, const std::vector<std::pair<Vec3, double>>& balls) {
+  return testing::remove_faces(soup, [&](const Vec3& c) {
+    return std::any_of(balls.begin(), balls.end(),
+                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
+  });
+}
+
 //! For each shared mesh, \p trials cuts: the faces within a random radius (1% to \p max_radius
 //! of the diagonal) of a random vertex removed; \p visit(holed soup, trial) under a trace that
 //! names the mesh and trial.
@@ -1332,10 +1341,7 @@ void for_each_random_cut(std::mt19937& random, int trials, double max_radius, Vi
         cut.emplace_back(centre, radius);
       }
       SCOPED_TRACE(std::string(name) + " trial " + std::to_string(trial));
-      MeshSoup holed = testing::remove_faces(read.soup, [&](const Vec3& c) {
-        return std::any_of(cut.begin(), cut.end(),
-                           [&](const auto& ball) { return (c - ball.first).norm() < ball.second; });
-      });
+      MeshSoup holed = cut_out_balls(read.soup, cut);
       visit(holed, trial);
     }
   }
@@ -1412,10 +1418,7 @@ TEST(HoleCasesRandom, AHoleWhoseAvoidingRoundsRunOutIsClosedByForbiddingFans) {
       {Vec3(0.315634996, 0.499570012, 0.258271992), 0.121827576},
       {Vec3(0.387638986, 0.0771713033, 0.485065013), 0.179820579},
       {Vec3(0.319759995, 0.145512, -0.0574042015), 0.181554073}};
-  const MeshSoup holed = testing::remove_faces(read.soup, [&](const Vec3& c) {
-    return std::any_of(balls.begin(), balls.end(),
-                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
-  });
+  const MeshSoup holed = cut_out_balls(read.soup, balls);
   bool found = false;
   for (const HoleFillReport& r : fill_all_checked(holed).holes) {
     EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
@@ -1438,10 +1441,7 @@ TEST(HoleCasesRandom, AFlatPatchWhoseMendingEndsWorseIsKeptUnmended) {
       {Vec3(-0.425191, 0.0438089, 0.0271768), 0.112256384},
       {Vec3(0.139733, -0.0591163, 0.128504), 0.0774225682},
       {Vec3(0.0534142, -0.0542121, 0.125417), 0.0526210759}};
-  const MeshSoup holed = testing::remove_faces(read.soup, [&](const Vec3& c) {
-    return std::any_of(balls.begin(), balls.end(),
-                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
-  });
+  const MeshSoup holed = cut_out_balls(read.soup, balls);
   bool found = false;
   for (const HoleFillReport& r : fill_all_checked(holed).holes) {
     EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
@@ -1466,10 +1466,7 @@ TEST(HoleCasesRandom, AFairedPatchUnder15DegreesIsTriedWithoutBisectionsBeforeFa
       {Vec3(0.240602, -0.341214, -0.117452), 0.0566588695},
       {Vec3(-0.024587, -0.350255, -0.0669927), 0.320043683},
       {Vec3(0.289863, 0.0225221, 0.77107), 0.217379305}};
-  const MeshSoup holed = testing::remove_faces(read.soup, [&](const Vec3& c) {
-    return std::any_of(balls.begin(), balls.end(),
-                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
-  });
+  const MeshSoup holed = cut_out_balls(read.soup, balls);
   bool found = false;
   for (const HoleFillReport& r : fill_all_checked(holed).holes) {
     EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
@@ -1498,10 +1495,7 @@ TEST(HoleCasesRandom, LeavingTheCornersOutBringsBackThePairsLeftOutBefore) {
                                                    {Vec3(4.3351, 16.1745, 0), 0.268886248},
                                                    {Vec3(4.8279, 15.231, -0.721811), 1.05108287},
                                                    {Vec3(4.16427, 14.8512, -1.09415), 0.884612993}};
-  const MeshSoup holed = testing::remove_faces(read.soup, [&](const Vec3& c) {
-    return std::any_of(balls.begin(), balls.end(),
-                       [&](const auto& b) { return (c - b.first).norm() < b.second; });
-  });
+  const MeshSoup holed = cut_out_balls(read.soup, balls);
   bool found = false;
   for (const HoleFillReport& r : fill_all_checked(holed).holes) {
     EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
@@ -1547,10 +1541,7 @@ TEST(HoleCasesRandom, PinchClosingTriangleIsFlippedIntoThePatch) {
       {Vec3(-6.2833399999999999, 1.8449500000000001, -7.5575000000000001), 1.8097314025801328},
       {Vec3(5.1874099999999999, -8.0717700000000008, 2.8173300000000001), 0.58180628145318991},
       {Vec3(0, -6.54861, 7.5575000000000001), 4.0038659545391253}};
-  const MeshSoup holed = testing::remove_faces(read.soup, [&](const Vec3& c) {
-    return std::any_of(balls.begin(), balls.end(),
-                       [&](const auto& ball) { return (c - ball.first).norm() < ball.second; });
-  });
+  const MeshSoup holed = cut_out_balls(read.soup, balls);
   Mesh mesh = build_mesh(holed).mesh;
   const auto holes = find_holes(mesh).holes;
   const testing::Snapshot before = testing::take_snapshot(mesh);
