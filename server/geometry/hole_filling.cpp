@@ -1063,8 +1063,9 @@ Box3 hole_region(const Hole& hole, const LoopData& loop) {
 }
 
 //! The smallest angle between two consecutive boundary edges of \p hole (degrees). Under 15°
-//! the rim turns back on itself there: a corner narrower than any triangle at it may be wide,
-//! or a slit; the faired patch's second build without bisections (fill_disk_hole) is not tried.
+//! the rim turns back on itself there: either a corner under 15° (no triangle at it can be
+//! wider) or a slit. The faired patch's second build without bisections (fill_disk_hole) is
+//! not tried on such a rim.
 double smallest_rim_corner_deg(const Mesh& mesh, const Hole& hole) {
   const std::size_t n = hole.loop.size();
   double smallest = 180;
