@@ -1231,14 +1231,12 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     bool membrane = false;
     //! A flat stand-in built again after the membrane tried in its place did no better.
     bool rebuilt = false;
-    //! The unmended build of a flat patch whose mending ended below the angle it started from
-    //! (see below), or the mended one built again after that did no better.
+    //! The rival of a patch set aside for a small angle (see below): a flat patch's build not
+    //! mended, a faired patch's build with no bisections in the mending before its fairing.
     bool versus_mended = false;
-    bool remended = false;
-    //! The same for a faired patch: built again with no bisections in the mending before its
-    //! fairing, or built again as it was after that did no better (see below).
     bool unbisected = false;
-    bool rebisected = false;
+    //! The set-aside patch built again after its rival did no better (not set aside twice).
+    bool after_rival = false;
     //! How far a flat patch is mended (a patch that crossed the mesh is built again with less
     //! mending, see below).
     enum class Mending { Full, FoldsKept, None } mending = Mending::Full;
@@ -1587,14 +1585,14 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
             "not mended, its smallest angle {:.1f} deg is no larger than the mended patch's "
             "{:.1f} deg",
             worst_angle, set_aside_mended_angle);
-      if (refused.empty() && !fair && !step.versus_mended && !step.remended &&
+      if (refused.empty() && !fair && !step.versus_mended && !step.after_rival &&
           step.mending != Attempt::Mending::None && !step.accept_degenerate &&
           worst_angle < kRescueBelowDeg && unmended_angle > worst_angle) {
         Attempt plain = step;
         plain.mending = Attempt::Mending::None;
         plain.versus_mended = true;
         Attempt again = step;
-        again.remended = true;
+        again.after_rival = true;
         set_aside_for(set_aside_mended_angle, plain, again);
         continue;
       }
@@ -1607,13 +1605,13 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
             "mended without bisections, its smallest angle {:.1f} deg is not enough above {:.1f} "
             "deg",
             worst_angle, set_aside_bisected_angle);
-      if (refused.empty() && fair && !step.membrane && !step.unbisected && !step.rebisected &&
+      if (refused.empty() && fair && !step.membrane && !step.unbisected && !step.after_rival &&
           !step.accept_degenerate && options.improve_quality && options.quality.bisect &&
           worst_angle < kRescueBelowDeg && smallest_rim_corner_deg(mesh, hole) >= kRescueBelowDeg) {
         Attempt plain = step;
         plain.unbisected = true;
         Attempt again = step;
-        again.rebisected = true;
+        again.after_rival = true;
         set_aside_for(set_aside_bisected_angle, plain, again);
         continue;
       }
