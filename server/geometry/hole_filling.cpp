@@ -533,6 +533,37 @@ bool insert_patch(Mesh& mesh, const Hole& hole, const TopologyPatch& patch,
   return true;
 }
 
+//! A built patch as a triangulation of the hole's loop and the patch's own vertices (where
+//! they are now), which insert_patch puts back as it is: a patch set aside for a rival is
+//! restored when the rival does no better, not built again (a rebuild makes new handles, and
+//! a few steps of the mending follow handle order, so it need not give the same triangles).
+//! Not ok if a face has a corner that is neither (never seen).
+TopologyPatch snapshot_patch(const Mesh& mesh, const Hole& hole,
+                             const std::vector<FaceHandle>& faces,
+                             const std::vector<VertexHandle>& vertices) {
+  TopologyPatch snapshot;
+  LocalMap<int> index(2 * (hole.loop.size() + vertices.size()) + 16);
+  // A pinched loop holds a vertex twice: its first place stands for both.
+  for (std::size_t i = 0; i < hole.loop.size(); ++i)
+    index.insert(hole.loop[i].idx(), static_cast<int>(i));
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    index.insert(vertices[i].idx(), static_cast<int>(hole.loop.size() + i));
+    snapshot.new_points.push_back(mesh.point(vertices[i]));
+  }
+  for (const FaceHandle f : faces) {
+    std::array<int, 3> corners{};
+    int k = 0;
+    for (const VertexHandle v : mesh.fv_range(f)) {
+      const int* at = index.find(v.idx());
+      if (at == nullptr) return {};
+      corners[static_cast<std::size_t>(k++)] = *at;
+    }
+    snapshot.triangles.push_back(corners);
+  }
+  snapshot.ok = true;
+  return snapshot;
+}
+
 struct ShapeDecision {
   PatchShape shape = PatchShape::Fair;
   //! Shape of the regions of a hole split along crease curves: flat on planar or piecewise
@@ -1229,14 +1260,16 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     bool accept_degenerate = false;
     //! A membrane instead of the thin plate (FillOptions::membrane_fallback).
     bool membrane = false;
-    //! A flat stand-in built again after the membrane tried in its place did no better.
+    //! A flat stand-in put back after the membrane tried in its place did no better.
     bool rebuilt = false;
     //! The rival of a patch set aside for a small angle (see below): a flat patch's build not
     //! mended, a faired patch's build with no bisections in the mending before its fairing.
     bool versus_mended = false;
     bool unbisected = false;
-    //! The set-aside patch built again after its rival did no better (not set aside twice).
+    //! The set-aside patch put back after its rival did no better (not set aside twice).
     bool after_rival = false;
+    //! Puts back the patch last set aside instead of building one (the step after a rival).
+    bool restores = false;
     //! How far a flat patch is mended (a patch that crossed the mesh is built again with less
     //! mending, see below).
     enum class Mending { Full, FoldsKept, None } mending = Mending::Full;
@@ -1326,6 +1359,15 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
   double set_aside_flat_angle = -1;
   double set_aside_mended_angle = -1;
   double set_aside_bisected_angle = -1;
+  // The patch last set aside, with what its build and check left, to be put back exactly when
+  // its rival does no better (the rivals themselves are never set aside, so one is enough).
+  struct SetAsidePatch {
+    TopologyPatch patch;
+    HoleFillReport attempt;
+    std::vector<int> face_regions;
+    double unmended_angle = -1;
+  };
+  std::optional<SetAsidePatch> set_aside;
   // A hole over the 3D triangulation's size limit that no other method could close gets it
   // anyway, as a last resort: the limit keeps its O(n^3) tables out of fills another method
   // does well (measured with the limit at 1,000 for every hole on the large random cuts of
@@ -1447,7 +1489,15 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       std::vector<int> face_pieces;
       std::vector<int> face_regions;
       std::string why;
-      if (!insert_patch(mesh, hole, patch, faces, vertices, face_pieces, why, &crossed_at[m])) {
+      // The patch set aside for a rival that did no better comes back as it was, built and
+      // checked then (were it not linked again, never seen, it would be built again).
+      bool restored = false;
+      if (step.restores && set_aside && set_aside->patch.ok) {
+        restored = insert_patch(mesh, hole, set_aside->patch, faces, vertices, face_pieces, why);
+        why.clear();
+      }
+      if (!restored &&
+          !insert_patch(mesh, hole, patch, faces, vertices, face_pieces, why, &crossed_at[m])) {
         failures.push_back(fmt::format("{}: {}", method_name(m), why));
         dead[m] = 1;
         continue;
@@ -1478,10 +1528,19 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       const bool mend_folds = step.mending == Attempt::Mending::Full &&
                               (pass == 1 || method == FillMethod::CreaseSplit || artefact_folds);
       double unmended_angle = -1;
-      std::string refused = build_patch_surface(
-          mesh, hole, faces, face_regions, vertices, face_pieces, patch.pieces, fair, mend_folds,
-          step.collapse_early, attempt_options ? *attempt_options : options, attempt,
-          &unmended_angle);
+      std::string refused;
+      if (restored) {
+        attempt = std::move(set_aside->attempt);
+        attempt.phases = attempt_phases;
+        face_regions = std::move(set_aside->face_regions);
+        unmended_angle = set_aside->unmended_angle;
+        set_aside.reset();
+      } else {
+        refused = build_patch_surface(mesh, hole, faces, face_regions, vertices, face_pieces,
+                                      patch.pieces, fair, mend_folds, step.collapse_early,
+                                      attempt_options ? *attempt_options : options, attempt,
+                                      &unmended_angle);
+      }
       if (fair && !step.membrane && !step.unbisected) last_bulge = attempt.fair_bulge;
       if (whole_hole_fairing(m, fair) && !step.membrane && !step.unbisected &&
           attempt.fair_bulge > kClearBalloon * options.max_fair_bulge)
@@ -1519,7 +1578,8 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
             find_intersections_between_groups(mesh, faces, face_regions, embedded, 1, reach));
       };
       const auto check_start = Clock::now();
-      const bool crosses = refused.empty() && options.check_intersections && patch_intersects();
+      const bool crosses =
+          refused.empty() && options.check_intersections && !restored && patch_intersects();
       attempt.phases.check += seconds_since(check_start);
       attempt_phases = attempt.phases;
       if (crosses)
@@ -1556,11 +1616,15 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
             "stand-in's {:.1f} deg",
             worst_angle, set_aside_flat_angle);
       // This patch is taken out and set aside (its smallest angle in \p angle) for \p rival,
-      // after which \p again builds it anew if the rival did no better.
+      // after which \p again puts it back (restored) if the rival did no better.
       const auto set_aside_for = [&](double& angle, Attempt rival, Attempt again) {
+        set_aside = SetAsidePatch{snapshot_patch(mesh, hole, faces, vertices), attempt,
+                                  face_regions, unmended_angle};
         remove_patch(mesh, faces, vertices);
         angle = worst_angle;
         rival.method = again.method = m;  // resolved (kFirstCrossed: a retry is queued once)
+        rival.restores = false;           // copied from a step that may have restored
+        again.restores = true;
         attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
                         {rival, again});
       };
@@ -1617,7 +1681,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       }
       if (!refused.empty() && step.unbisected) {
         remove_patch(mesh, faces, vertices);
-        continue;  // the patch as first built comes next
+        continue;  // the patch as first built comes back next
       }
       if (!refused.empty()) {
         remove_patch(mesh, faces, vertices);
@@ -1649,7 +1713,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
                                                                       : "",
                           refused));
           dead[m] = 1;
-        }  // an unmended build that did no better: the mended one is built again next
+        }  // an unmended build that did no better: the mended one comes back next
         continue;
       }
       if (method == FillMethod::CreaseSplit) {

@@ -1481,6 +1481,59 @@ TEST(HoleCasesRandom, AFairedPatchUnder15DegreesIsTriedWithoutBisectionsBeforeFa
   EXPECT_TRUE(found);
 }
 
+// Two balls cut out of couplingdown (the ball-cut bench's seed 2, cut 8) leave an 18-edge hole
+// whose thin plate is refused (nothing to fair); its flat stand-in ends at 8.0° and is set aside
+// for a membrane, which is refused too. The stand-in then comes back exactly as it was built
+// and checked, not built again: the fill is the one made with no membrane to try, vertex for
+// vertex and face for face.
+TEST(HoleCasesRandom, APatchSetAsideForARivalThatDoesNoBetterComesBackAsItWas) {
+  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/couplingdown.off");
+  ASSERT_TRUE(read.ok) << read.error;
+  const std::vector<std::pair<Vec3, double>> balls{
+      {Vec3(0.17123, -0.137008, 0.0572529), 0.0600358918},
+      {Vec3(0.163898, -0.0524814, -0.0330189), 0.0413462461}};
+  const MeshSoup holed = cut_out_balls(read.soup, balls);
+  const auto fill_the_hole = [&](const FillOptions& options, Mesh& mesh) {
+    mesh = build_mesh(holed).mesh;
+    const auto holes = find_holes(mesh).holes;
+    const auto hole =
+        std::find_if(holes.begin(), holes.end(), [](const Hole& h) { return h.loop.size() == 18; });
+    EXPECT_NE(hole, holes.end());
+    const testing::Snapshot before = testing::take_snapshot(mesh);
+    HoleFillReport r = hole == holes.end() ? HoleFillReport{} : fill_hole(mesh, *hole, options);
+    EXPECT_TRUE(testing::check_fill_invariants(before, mesh, {r}, holes).empty());
+    return r;
+  };
+  Mesh with_rival, without;
+  const HoleFillReport r = fill_the_hole(FillOptions{}, with_rival);
+  ASSERT_TRUE(r.filled) << r.reason;
+  EXPECT_EQ(r.shape, PatchShape::Flat);
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings.front().find("(a membrane)"), std::string::npos) << r.warnings.front();
+  EXPECT_LT(r.min_angle_deg, 15.0);
+  FillOptions no_membrane;
+  no_membrane.membrane_fallback = false;
+  const HoleFillReport alone = fill_the_hole(no_membrane, without);
+  ASSERT_TRUE(alone.filled) << alone.reason;
+  ASSERT_EQ(r.new_vertices.size(), alone.new_vertices.size());
+  ASSERT_FALSE(r.new_vertices.empty());
+  for (std::size_t i = 0; i < r.new_vertices.size(); ++i)
+    EXPECT_EQ(with_rival.point(r.new_vertices[i]), without.point(alone.new_vertices[i]));
+  const auto corners = [](const Mesh& mesh, const std::vector<FaceHandle>& faces) {
+    std::multiset<std::array<double, 9>> out;
+    for (const FaceHandle f : faces) {
+      std::array<double, 9> c{};
+      int k = 0;
+      for (const VertexHandle v : mesh.fv_range(f))
+        for (int d = 0; d < 3; ++d) c[static_cast<std::size_t>(k++)] = mesh.point(v)[d];
+      out.insert(c);
+    }
+    return out;
+  };
+  EXPECT_EQ(corners(with_rival, r.new_faces), corners(without, alone.new_faces));
+  EXPECT_EQ(r.min_angle_deg, alone.min_angle_deg);
+}
+
 // Five balls cut out of fandisk (the ball-cut bench's seed 10, cut 6) leave a 132-edge hole with
 // ten crease crossings: two pairs and six creases that meet at two corners, one of them past
 // the rim's ball (a wing's tip). The split along all nine curves crosses the mesh, and so does
