@@ -1106,9 +1106,7 @@ double smallest_rim_corner_deg(const Mesh& mesh, const Hole& hole) {
     const Vec3 b = mesh.point(hole.loop[(i + 1) % n]) - p;
     const double la = a.norm(), lb = b.norm();
     if (!(la > 0) || !(lb > 0)) return 0;
-    smallest =
-        std::min(smallest, std::acos(std::clamp(OpenMesh::dot(a, b) / (la * lb), -1.0, 1.0)) *
-                               180.0 / std::numbers::pi);
+    smallest = std::min(smallest, degrees_of_cos(OpenMesh::dot(a, b) / (la * lb)));
   }
   return smallest;
 }
@@ -1261,15 +1259,13 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     //! A membrane instead of the thin plate (FillOptions::membrane_fallback).
     bool membrane = false;
     //! A flat stand-in put back after the membrane tried in its place did no better.
-    bool rebuilt = false;
+    bool after_membrane = false;
     //! The rival of a patch set aside for a small angle (see below): a flat patch's build not
     //! mended, a faired patch's build with no bisections in the mending before its fairing.
     bool versus_mended = false;
     bool unbisected = false;
     //! The set-aside patch put back after its rival did no better (not set aside twice).
     bool after_rival = false;
-    //! Puts back the patch last set aside instead of building one (the step after a rival).
-    bool restores = false;
     //! How far a flat patch is mended (a patch that crossed the mesh is built again with less
     //! mending, see below).
     enum class Mending { Full, FoldsKept, None } mending = Mending::Full;
@@ -1492,7 +1488,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
       // The patch set aside for a rival that did no better comes back as it was, built and
       // checked then (were it not linked again, never seen, it would be built again).
       bool restored = false;
-      if (step.restores && set_aside && set_aside->patch.ok) {
+      if ((step.after_membrane || step.after_rival) && set_aside && set_aside->patch.ok) {
         restored = insert_patch(mesh, hole, set_aside->patch, faces, vertices, face_pieces, why);
         why.clear();
       }
@@ -1623,20 +1619,19 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
         remove_patch(mesh, faces, vertices);
         angle = worst_angle;
         rival.method = again.method = m;  // resolved (kFirstCrossed: a retry is queued once)
-        rival.restores = false;           // copied from a step that may have restored
-        again.restores = true;
+        rival.after_membrane = rival.after_rival = false;  // copied from a put-back step
         attempts.insert(attempts.begin() + static_cast<std::ptrdiff_t>(next_attempt) + 1,
                         {rival, again});
       };
-      if (refused.empty() && options.membrane_fallback && !fair && step.fallback && !step.rebuilt &&
-          step.mending == Attempt::Mending::Full && whole_hole_fairing(m, true) &&
-          worst_angle < kRescueBelowDeg) {
+      if (refused.empty() && options.membrane_fallback && !fair && step.fallback &&
+          !step.after_membrane && step.mending == Attempt::Mending::Full &&
+          whole_hole_fairing(m, true) && worst_angle < kRescueBelowDeg) {
         Attempt membrane = step;
         membrane.fair = true;
         membrane.membrane = true;
-        Attempt rebuilt = step;
-        rebuilt.rebuilt = true;
-        set_aside_for(set_aside_flat_angle, membrane, rebuilt);
+        Attempt again = step;
+        again.after_membrane = true;
+        set_aside_for(set_aside_flat_angle, membrane, again);
         continue;
       }
       // The mending of a flat patch may end below the angle the refined triangulation had: its

@@ -1358,6 +1358,25 @@ FillReport fill_all_checked(const MeshSoup& holed) {
   return report;
 }
 
+//! The ball cut \p balls of shared mesh \p mesh_name filled whole with the defaults
+//! (fill_all_checked: the invariants kept), every hole closed: the report of its one hole with
+//! \p boundary edges (none, with a failure, if there is not exactly one).
+std::optional<HoleFillReport> fill_ball_cut(const std::string& mesh_name,
+                                            const std::vector<std::pair<Vec3, double>>& balls,
+                                            std::size_t boundary) {
+  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/" + mesh_name);
+  EXPECT_TRUE(read.ok) << read.error;
+  if (!read.ok) return std::nullopt;
+  std::vector<HoleFillReport> matching;
+  for (HoleFillReport& r : fill_all_checked(cut_out_balls(read.soup, balls)).holes) {
+    EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
+    if (r.boundary_vertices == boundary) matching.push_back(std::move(r));
+  }
+  EXPECT_EQ(matching.size(), 1u) << "holes with " << boundary << " boundary edges";
+  if (matching.size() != 1) return std::nullopt;
+  return std::move(matching.front());
+}
+
 // Holes no one picked: the faces within a random radius (1–8% of the diagonal) of a random
 // vertex removed from each shared mesh, eight times each, and every hole filled with the
 // defaults. Whatever the cut leaves (several loops, narrow rim corners, creases at odd angles),
@@ -1410,23 +1429,15 @@ TEST(HoleCasesRandom, HolesCutByOverlappingBallsIncludingPinchedOnesAreFilledCle
 // method crossed too). The last resort tests the fans of the short edges beside the crossing
 // triangles whole: the hole is closed.
 TEST(HoleCasesRandom, AHoleWhoseAvoidingRoundsRunOutIsClosedByForbiddingFans) {
-  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/mech-holes-shark.off");
-  ASSERT_TRUE(read.ok) << read.error;
   const std::vector<std::pair<Vec3, double>> balls{
       {Vec3(0.258078992, 0.498602986, -0.345764011), 0.23072732},
       {Vec3(0.390560001, 0.111491002, 0.188259005), 0.119129412},
       {Vec3(0.315634996, 0.499570012, 0.258271992), 0.121827576},
       {Vec3(0.387638986, 0.0771713033, 0.485065013), 0.179820579},
       {Vec3(0.319759995, 0.145512, -0.0574042015), 0.181554073}};
-  const MeshSoup holed = cut_out_balls(read.soup, balls);
-  bool found = false;
-  for (const HoleFillReport& r : fill_all_checked(holed).holes) {
-    EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
-    if (r.boundary_vertices != 128) continue;
-    found = true;
-    EXPECT_EQ(r.method, FillMethod::MinimumWeight3d);
-  }
-  EXPECT_TRUE(found);
+  const std::optional<HoleFillReport> r = fill_ball_cut("mech-holes-shark.off", balls, 128);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->method, FillMethod::MinimumWeight3d);
 }
 
 // Four balls cut out of hand (the ball-cut bench's seed 1, cut 7) leave a 13-edge hole whose
@@ -1434,25 +1445,17 @@ TEST(HoleCasesRandom, AHoleWhoseAvoidingRoundsRunOutIsClosedByForbiddingFans) {
 // at its worst, and its mending (bisections across the bent rim, which the smoothing could
 // not mend) took it to 5.5°. The unmended build is kept when its smallest angle is the larger.
 TEST(HoleCasesRandom, AFlatPatchWhoseMendingEndsWorseIsKeptUnmended) {
-  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/hand.off");
-  ASSERT_TRUE(read.ok) << read.error;
   const std::vector<std::pair<Vec3, double>> balls{
       {Vec3(-0.0960384, 0.194568, 0.365899), 0.0742741242},
       {Vec3(-0.425191, 0.0438089, 0.0271768), 0.112256384},
       {Vec3(0.139733, -0.0591163, 0.128504), 0.0774225682},
       {Vec3(0.0534142, -0.0542121, 0.125417), 0.0526210759}};
-  const MeshSoup holed = cut_out_balls(read.soup, balls);
-  bool found = false;
-  for (const HoleFillReport& r : fill_all_checked(holed).holes) {
-    EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
-    if (r.boundary_vertices != 13) continue;
-    found = true;
-    EXPECT_EQ(r.shape, PatchShape::Flat);
-    EXPECT_GE(r.min_angle_deg, 14.5);  // 5.5° mended
-    EXPECT_NE(r.shape_reason.find("not mended (mended, its smallest angle was"), std::string::npos)
-        << r.shape_reason;
-  }
-  EXPECT_TRUE(found);
+  const std::optional<HoleFillReport> r = fill_ball_cut("hand.off", balls, 13);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->shape, PatchShape::Flat);
+  EXPECT_GE(r->min_angle_deg, 14.5);  // 5.5° mended
+  EXPECT_NE(r->shape_reason.find("not mended (mended, its smallest angle was"), std::string::npos)
+      << r->shape_reason;
 }
 
 // Three balls cut out of spot (the ball-cut bench's seed 8, cut 1) leave a 66-edge hole split
@@ -1460,25 +1463,17 @@ TEST(HoleCasesRandom, AFlatPatchWhoseMendingEndsWorseIsKeptUnmended) {
 // pulled a new vertex against the rim: 9.1° at the end. Mended without those bisections the
 // faired patch keeps 18.8° (its distance to the removed faces the same, 2.81 per mille).
 TEST(HoleCasesRandom, AFairedPatchUnder15DegreesIsTriedWithoutBisectionsBeforeFairing) {
-  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/spot.obj");
-  ASSERT_TRUE(read.ok) << read.error;
   const std::vector<std::pair<Vec3, double>> balls{
       {Vec3(0.240602, -0.341214, -0.117452), 0.0566588695},
       {Vec3(-0.024587, -0.350255, -0.0669927), 0.320043683},
       {Vec3(0.289863, 0.0225221, 0.77107), 0.217379305}};
-  const MeshSoup holed = cut_out_balls(read.soup, balls);
-  bool found = false;
-  for (const HoleFillReport& r : fill_all_checked(holed).holes) {
-    EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
-    if (r.boundary_vertices != 66) continue;
-    found = true;
-    EXPECT_EQ(r.method, FillMethod::CreaseSplit);
-    EXPECT_EQ(r.shape, PatchShape::Fair);
-    EXPECT_GE(r.min_angle_deg, 15.0);  // 9.1° with the bisections
-    EXPECT_NE(r.shape_reason.find("mended without bisections before fairing"), std::string::npos)
-        << r.shape_reason;
-  }
-  EXPECT_TRUE(found);
+  const std::optional<HoleFillReport> r = fill_ball_cut("spot.obj", balls, 66);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->method, FillMethod::CreaseSplit);
+  EXPECT_EQ(r->shape, PatchShape::Fair);
+  EXPECT_GE(r->min_angle_deg, 15.0);  // 9.1° with the bisections
+  EXPECT_NE(r->shape_reason.find("mended without bisections before fairing"), std::string::npos)
+      << r->shape_reason;
 }
 
 // Two balls cut out of couplingdown (the ball-cut bench's seed 2, cut 8) leave an 18-edge hole
@@ -1541,24 +1536,16 @@ TEST(HoleCasesRandom, APatchSetAsideForARivalThatDoesNoBetterComesBackAsItWas) {
 // that pair too (it was not what crossed): the split along both pairs holds. Before, the pair
 // stayed out and the fill kept one curve (mean 10.9 against 6.9 per mille).
 TEST(HoleCasesRandom, LeavingTheCornersOutBringsBackThePairsLeftOutBefore) {
-  const auto read = read_mesh_file(testing::shared_data_dir() + "/meshes/fandisk.obj");
-  ASSERT_TRUE(read.ok) << read.error;
   const std::vector<std::pair<Vec3, double>> balls{{Vec3(2.63484, 13.3857, -1.13945), 1.00602513},
                                                    {Vec3(2.4279, 13.1525, -0.60166), 0.292172719},
                                                    {Vec3(4.3351, 16.1745, 0), 0.268886248},
                                                    {Vec3(4.8279, 15.231, -0.721811), 1.05108287},
                                                    {Vec3(4.16427, 14.8512, -1.09415), 0.884612993}};
-  const MeshSoup holed = cut_out_balls(read.soup, balls);
-  bool found = false;
-  for (const HoleFillReport& r : fill_all_checked(holed).holes) {
-    EXPECT_TRUE(r.filled) << "hole " << r.hole_id << ": " << r.reason;
-    if (r.boundary_vertices != 132) continue;
-    found = true;
-    EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.shape_reason;
-    EXPECT_NE(r.shape_reason.find("split along 2 crease curves"), std::string::npos)
-        << r.shape_reason;
-  }
-  EXPECT_TRUE(found);
+  const std::optional<HoleFillReport> r = fill_ball_cut("fandisk.obj", balls, 132);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->method, FillMethod::CreaseSplit) << r->shape_reason;
+  EXPECT_NE(r->shape_reason.find("split along 2 crease curves"), std::string::npos)
+      << r->shape_reason;
 }
 
 // A slot along the rim of couplingdown's top boss where it meets a small tooth (the faces within
