@@ -1397,6 +1397,130 @@ std::vector<std::size_t> end_at_rim_corners(HoleCreasePlan& plan, FaceNormals& n
   return out;
 }
 
+//! The normal of a face that the creases of crossings \p a and \p b both bound, or none: one
+//! face normal of each within kSharedFaceDeg of the other, each crossing on the other's face
+//! plane and both creases' tangents in it (all to within the same angle, seen along the chord).
+std::optional<Vec3> shared_face_normal(const CreaseCrossing& a, const CreaseCrossing& b) {
+  constexpr double kSharedFaceDeg = 2.0;
+  const double sine = std::sin(kSharedFaceDeg * kDeg);
+  const Vec3 chord = b.position - a.position;
+  const double length = chord.norm();
+  if (!(length > 0)) return std::nullopt;
+  for (const Vec3& fa : a.faces)
+    for (const Vec3& fb : b.faces) {
+      if (!(angle_between(fa, fb) <= kSharedFaceDeg * kDeg)) continue;
+      if (std::abs(OpenMesh::dot(fa, chord)) > sine * length ||
+          std::abs(OpenMesh::dot(fb, chord)) > sine * length)
+        continue;
+      if (std::abs(OpenMesh::dot(fa, a.inward)) > sine ||
+          std::abs(OpenMesh::dot(fb, b.inward)) > sine)
+        continue;
+      return Vec3(fa + fb).normalize_cond();
+    }
+  return std::nullopt;
+}
+
+//! Crossings left over after the pairs and corners, joined two by two where both creases bound
+//! one planar face of a CAD part: the face's edge is one crease however far it turns inside the
+//! hole (fandisk's tongue, whose flat underside is bounded by a U: ball cut s5c4 hole 638 enters
+//! 67° off the chord and leaves 48° off it, past `loose_pair_angle_deg`, and the 3D fill across
+//! it came out 9.8‰ off with 3.6° slivers). The Hermite curve of such a pair lies in the face's
+//! plane (its tangents do) and may turn up to a U (HermiteOptions' a(θ)). Taken only on a CAD
+//! part's surroundings (median dihedral under 1°, as join_at_corners' two-crease corner: a
+//! scan's faces are never exactly coplanar, and a looser tangent agreement measured farther on
+//! its random cuts), when neither end's tangent turns more than kMaxTurnDeg off the chord (a
+//! crease heading away from its partner is not its partner), the crossings lie at least
+//! kMinChordEdges mean rim edges apart, the curve stays inside the hole's projection and crosses
+//! no curve of \p plan; the least turning pairs first. Returns the crossings of \p left still
+//! unmatched.
+//!
+//! Two edges of one face that cross the rim close together meet at a corner by the rim, which a
+//! curve between them rounds off: measured on the cut benches (ball cuts seeds 1-12, crease
+//! slots 1-20), the pairs 0.95-4.0 mean rim edges apart made four fills worse (crease slot s14c6
+//! hole 1278 29.3 -> 14.9°, ball cut s7c3 hole 555 11.4 -> 14.3‰ mean), those 6.5-15.5 apart
+//! made eleven closer to the removed faces on average (two with a larger Hausdorff distance)
+//! and none farther.
+std::vector<std::size_t> pair_along_shared_faces(
+    HoleCreasePlan& plan, FaceNormals& normals, const Hole& hole, std::span<const std::size_t> left,
+    const CreaseOptions& options, double tolerance,
+    const std::function<bool(const Vec3&)>& inside_hole) {
+  constexpr double kMaxTurnDeg = 95.0;
+  constexpr double kMinChordEdges = 5.0;
+  constexpr double kMaxMedianDihedralDeg = 1.0;
+  struct SharedFacePair {
+    double score;
+    std::size_t a, b;
+  };
+  std::vector<SharedFacePair> candidates;
+  for (std::size_t x = 0; x < left.size(); ++x)
+    for (std::size_t y = x + 1; y < left.size(); ++y) {
+      const CreaseCrossing& ca = plan.crossings[left[x]];
+      const CreaseCrossing& cb = plan.crossings[left[y]];
+      if (ca.loop_index == cb.loop_index || ca.convex != cb.convex ||
+          std::max(ca.dihedral_deg, cb.dihedral_deg) >
+              options.max_pair_dihedral_ratio * std::min(ca.dihedral_deg, cb.dihedral_deg) ||
+          !shared_face_normal(ca, cb))
+        continue;
+      const Vec3 chord = cb.position - ca.position;
+      if (chord.norm() < kMinChordEdges * hole.mean_edge_length) continue;
+      const double score =
+          std::max(angle_between(ca.inward, chord), angle_between(cb.inward, -chord));
+      if (score <= kMaxTurnDeg * kDeg) candidates.push_back({score, left[x], left[y]});
+    }
+  if (candidates.empty() ||
+      !(median_dihedral_near(normals.mesh(), hole, normals) < kMaxMedianDihedralDeg))
+    return {left.begin(), left.end()};
+  std::sort(candidates.begin(), candidates.end(),
+            [](const SharedFacePair& p, const SharedFacePair& q) { return p.score < q.score; });
+  const std::size_t n = hole.loop.size();
+  // Whether a pair between loop indices la and lb separates the crossings of a curve of the plan
+  // (a pair's two ends, or all the creases to one corner).
+  const auto crosses_a_curve = [&](std::size_t la, std::size_t lb) {
+    const std::size_t span = (lb + n - la) % n;
+    const auto inside = [&](std::size_t i) {
+      const std::size_t offset = (plan.crossings[i].loop_index + n - la) % n;
+      return offset > 0 && offset < span;
+    };
+    for (const CreaseCurve& c : plan.curves) {
+      if (c.to) {
+        if (interleaved(la, lb, plan.crossings[c.from].loop_index,
+                        plan.crossings[*c.to].loop_index))
+          return true;
+        continue;
+      }
+      for (const CreaseCurve& d : plan.curves)
+        if (!d.to && d.corner == c.corner && inside(c.from) != inside(d.from)) return true;
+    }
+    return false;
+  };
+  std::set<std::size_t> used;
+  for (const SharedFacePair& p : candidates) {
+    if (used.count(p.a) || used.count(p.b)) continue;
+    const CreaseCrossing& ca = plan.crossings[p.a];
+    const CreaseCrossing& cb = plan.crossings[p.b];
+    if (crosses_a_curve(ca.loop_index, cb.loop_index)) continue;
+    CreaseCurve curve;
+    curve.from = p.a;
+    curve.to = p.b;
+    curve.points = {ca.far_point, ca.position, cb.position, cb.far_point};
+    const HermiteCurveResult r = make_hermite_curve(curve.points, options.hermite, tolerance);
+    if (!r.curve) continue;
+    const std::vector<CurveSample> samples = sample_by_arc_length(*r.curve, hole.mean_edge_length);
+    if (!std::all_of(samples.begin() + 1, samples.end() - 1,
+                     [&](const CurveSample& s) { return inside_hole(s.point); }))
+      continue;
+    curve.curve = *r.curve;
+    curve.misfit = p.score;
+    plan.curves.push_back(curve);
+    used.insert(p.a);
+    used.insert(p.b);
+  }
+  std::vector<std::size_t> out;
+  for (const std::size_t a : left)
+    if (!used.count(a)) out.push_back(a);
+  return out;
+}
+
 }  // namespace
 
 //! join_at_corners: a corner this many mean rim edges from a crossing is on the rim. Measured on
@@ -1686,9 +1810,11 @@ std::vector<RoundedCrease> find_rounded_creases(FaceNormals& normals, const Hole
 //! "N crease crossings, K curves[ meeting at ...][, U unmatched]": the straight creases between
 //! corners count as curves.
 std::string plan_summary(const HoleCreasePlan& plan) {
+  const auto plural = [](std::size_t count) { return count == 1 ? "" : "s"; };
+  const std::size_t curves = curve_count(plan);
   return fmt::format(
-      "{} crease crossings, {} curves{}{}", plan.crossings.size(), curve_count(plan),
-      meeting_at_corners(plan.corners.size()),
+      "{} crease crossing{}, {} curve{}{}{}", plan.crossings.size(), plural(plan.crossings.size()),
+      curves, plural(curves), meeting_at_corners(plan.corners.size()),
       plan.unmatched.empty() ? "" : fmt::format(", {} unmatched", plan.unmatched.size()));
 }
 
@@ -2088,6 +2214,8 @@ HoleCreasePlan plan_hole_creases(FaceNormals& normals, const Hole& hole,
       join_at_corners(plan, normals, hole, left, options.corner_tolerance * diameter,
                       options.two_corner_gain, options.hermite, tolerance, inside_hole))
     left.clear();
+  if (left.size() >= 2)
+    left = pair_along_shared_faces(plan, normals, hole, left, options, tolerance, inside_hole);
   plan.unmatched = left;
   plan.summary = plan_summary(plan);
   return plan;

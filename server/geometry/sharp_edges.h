@@ -18,6 +18,8 @@
 //! over meet at the least-squares intersection of their tangent lines (a corner, e.g. a cube
 //! corner cut by the hole) unless a pair's curve separates them; two left over (or more that
 //! cannot meet) are joined if their tangents are at least `loose_pair_angle_deg` consistent.
+//! Two still left whose creases bound one planar face of a CAD part are one crease, the face's
+//! edge, and are joined however far it turns inside the hole (up to a U; a tongue's end).
 //! Everything not joined is reported.
 //!
 //! Curved creases: the fit also gives each crease's curvature at the rim. Two crossings whose

@@ -281,7 +281,7 @@ TEST(SharpEdges, ThePlanLosesTheCurveNearestTheTroubleOrItsLeastCertainOne) {
   EXPECT_EQ(second->curves[0].from, 0u);
   EXPECT_TRUE(second->corners.empty());
   EXPECT_EQ(second->unmatched, (std::vector<std::size_t>{2, 3, 4, 5, 6}));
-  EXPECT_EQ(second->summary, "7 crease crossings, 1 curves, 5 unmatched");
+  EXPECT_EQ(second->summary, "7 crease crossings, 1 curve, 5 unmatched");
   EXPECT_FALSE(plan_without_weakest_curve(*second, options));
 
   // The split crossed the mesh beside the most certain pair: that pair goes.
