@@ -111,4 +111,9 @@ std::vector<CurveSample> sample_by_arc_length(const HermiteCurve& curve, double 
   return samples;
 }
 
+HermiteCurve sub_curve(const HermiteCurve& curve, double from, double to) {
+  const double span = to - from;
+  return {curve.at(from), curve.at(to), span * curve.derivative(from), span * curve.derivative(to)};
+}
+
 }  // namespace touchmend::geometry

@@ -64,4 +64,8 @@ std::vector<CurveSample> sample_by_arc_length(const HermiteCurve& curve, double 
 //! Arc length of the curve (256 chords).
 double curve_length(const HermiteCurve& curve);
 
+//! The piece of \p curve from parameter \p from to \p to (either way round) as a curve of its
+//! own over [0, 1]: the same points, its tangents scaled by the piece's parameter span.
+HermiteCurve sub_curve(const HermiteCurve& curve, double from, double to);
+
 }  // namespace touchmend::geometry

@@ -573,6 +573,8 @@ struct ShapeDecision {
   //! which follows them (kept flat on piecewise-planar surroundings, faired otherwise).
   bool feature = false;
   std::string reason;
+  //! median_dihedral_near, where the decision worked it out (the crease plan asks it too).
+  std::optional<double> median_dihedral_deg;
 };
 
 double degrees_of_cos(double c) {
@@ -713,6 +715,7 @@ ShapeDecision decide_shape(FaceNormals& normals, const Hole& hole, const FillOpt
     return d;
   }
   const double median = median_dihedral_near(mesh, hole, normals);
+  d.median_dihedral_deg = median;
   // Edge by edge planar, but are the planes a part's faces? (rim_planes_across) Asked only
   // where it decides the shape: holes without creases at the rim are faired either way (the
   // fill benchmark's subdivided sphere, 736 edges: no time spent on it there).
@@ -1178,7 +1181,7 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
     creases = options.explicit_creases;
     report.creases = creases->summary;
   } else if (options.sharp == SharpMode::Auto) {
-    creases = plan_hole_creases(normals, hole, options.creases);
+    creases = plan_hole_creases(normals, hole, options.creases, decision.median_dihedral_deg);
     report.creases = creases->summary;
   }
   const double plan_seconds = seconds_since(plan_start);

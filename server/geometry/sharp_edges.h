@@ -190,6 +190,9 @@ struct HoleCreasePlan {
   //! that end there.
   std::vector<Vec3> corners;
   std::vector<std::pair<std::size_t, std::size_t>> corner_links;
+  //! Pairs whose curve a corner splits in two (a crease left over that ends on it): the plan
+  //! without its corners (plan_without_corners) has them back whole.
+  std::vector<CreaseCurve> pairs_split_at_corners;
   std::vector<std::size_t> unmatched;  //!< crossings that no curve uses
   std::string summary;                 //!< one line for reports
 };
@@ -203,9 +206,12 @@ HoleCreasePlan plan_hole_creases(const Mesh& mesh, const Hole& hole,
                                  const CreaseOptions& options = {});
 
 //! The same, with the face normals of the mesh around the hole read from (and added to) \p
-//! normals: a fill decides the patch's shape from the same faces first.
+//! normals: a fill decides the patch's shape from the same faces first, and may pass the
+//! median_dihedral_near it found there as \p median_dihedral_deg (worked out when needed
+//! otherwise).
 HoleCreasePlan plan_hole_creases(FaceNormals& normals, const Hole& hole,
-                                 const CreaseOptions& options = {});
+                                 const CreaseOptions& options = {},
+                                 std::optional<double> median_dihedral_deg = std::nullopt);
 
 //! " meeting at a corner", " meeting at N corners", or nothing for none: for plan summaries.
 std::string meeting_at_corners(std::size_t corners);

@@ -29,6 +29,22 @@ TEST(HermiteCurve, InterpolatesEndsAndTangents) {
   EXPECT_DOUBLE_EQ(r.k4, 2.5);
 }
 
+// A piece of a curve (end_on_paired_curves splits a pair's curve at a corner): the same points
+// over [0, 1], either way round.
+TEST(HermiteCurve, APieceIsTheSamePointsReparametrised) {
+  const HermitePoints p{{-1, 0, 0}, {0, 0, 0}, {2, 1, 0}, {2, 3, 1}};
+  const HermiteCurveResult r = make_hermite_curve(p, {}, 1e-12);
+  ASSERT_TRUE(r.curve) << r.failure;
+  const HermiteCurve& c = *r.curve;
+  const HermiteCurve ahead = sub_curve(c, 0.0, 0.3);
+  const HermiteCurve back = sub_curve(c, 1.0, 0.3);
+  for (double s = 0; s <= 1.0; s += 0.125) {
+    EXPECT_LT((ahead.at(s) - c.at(0.3 * s)).norm(), 1e-12) << s;
+    EXPECT_LT((back.at(s) - c.at(1.0 - 0.7 * s)).norm(), 1e-12) << s;
+  }
+  EXPECT_LT((back.derivative(0) + 0.7 * c.derivative(1)).norm(), 1e-12);
+}
+
 TEST(HermiteCurve, StraightConfigurationGivesTheSegmentAtUniformSpeed) {
   const HermitePoints p{{-1, 1, 1}, {0, 1, 1}, {4, 1, 1}, {5, 1, 1}};
   const HermiteCurveResult r = make_hermite_curve(p, {}, 1e-12);

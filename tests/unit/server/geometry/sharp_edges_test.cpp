@@ -303,6 +303,28 @@ TEST(SharpEdges, ThePlanLosesTheCurveNearestTheTroubleOrItsLeastCertainOne) {
   EXPECT_TRUE(no_corners->corners.empty());
   EXPECT_EQ(no_corners->unmatched, (std::vector<std::size_t>{4, 5, 6}));
   EXPECT_FALSE(plan_without_corners(*no_corners));
+
+  // A corner on a pair's curve (a crease that ends on it): without the corner the pair is back
+  // whole, and the crease that ended there is unmatched.
+  HoleCreasePlan tee = plan;
+  tee.corners = {Vec3(5, 0, 0)};
+  tee.curves.erase(tee.curves.begin() + 2, tee.curves.end());  // the corner's creases
+  tee.pairs_split_at_corners = {tee.curves[0]};
+  tee.curves.erase(tee.curves.begin());  // the pair along y = 0, split at x = 5
+  for (const auto& [from, end] : {std::pair{0u, 0.0}, std::pair{1u, 10.0}, std::pair{4u, 5.0}}) {
+    CreaseCurve c;
+    c.from = from;
+    c.corner = 0;
+    c.curve = line(Vec3(end, from == 4u ? 12.0 : 0.0, 0), Vec3(5, 0, 0));
+    tee.curves.push_back(c);
+  }
+  const auto no_tee = plan_without_corners(tee);
+  ASSERT_TRUE(no_tee);
+  ASSERT_EQ(no_tee->curves.size(), 2u);
+  EXPECT_TRUE(no_tee->pairs_split_at_corners.empty());
+  EXPECT_EQ(no_tee->curves[1].from, 0u);
+  EXPECT_EQ(no_tee->curves[1].to, std::optional<std::size_t>(1));
+  EXPECT_EQ(no_tee->unmatched, (std::vector<std::size_t>{4}));
 }
 
 // A 45 deg fold across a hole (a chamfer of a CAD part): below the crease angle of 50 deg, but
