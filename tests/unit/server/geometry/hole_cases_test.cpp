@@ -1189,6 +1189,22 @@ TEST(HoleCaseQuality, ACreaseLeftOverEndsWhereItRunsIntoAPairedCurve) {
   EXPECT_LE(patch_distances(*cut).mean, 0.3);
 }
 
+// A ball cut out of fandisk across its top edge by the tongue's root (the faces within 0.659 of
+// a point; the ball-cut bench's seed 11 cut 7 takes it with two more balls that leave this hole
+// alone). The edge crosses the rim once; where it leaves the hole it reaches the rim at a vertex
+// with no sharp edge of its own and runs along one rim edge to the root's corner. Unmatched, the
+// 3D triangulation folded across it (3.9°). The edge now ends where it reaches the rim: one
+// straight curve, 20.6°.
+TEST(HoleCaseQuality, ACreaseThatRunsAlongTheRimToItsCornerEndsWhereItReachesTheRim) {
+  const auto cut = fill_one_cut("fandisk.obj", Vec3(3.11057, 13.6048, 0), 0.658811786);
+  ASSERT_TRUE(cut);
+  const HoleFillReport& r = cut->report.holes[0];
+  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
+  EXPECT_EQ(r.creases, "2 crease crossings, 1 curve");
+  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
+  EXPECT_LE(patch_distances(*cut).mean, 0.6);
+}
+
 //! A slot fill along the part's creases into a corner that follows them: every triangle 15° or
 //! better, within 0.1 per mille of the removed faces on average, the creases within 1 per mille.
 void expect_exact_corner_fill(const CutFill& cut) {
