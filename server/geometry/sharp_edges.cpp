@@ -1443,27 +1443,24 @@ class MedianDihedral {
   std::optional<double> value_;
 };
 
-//! The normal of a face that the creases of crossings \p a and \p b both bound, or none: one
-//! face normal of each within kSharedFaceDeg of the other, each crossing on the other's face
-//! plane and both creases' tangents in it (all to within the same angle, seen along the chord).
-std::optional<Vec3> shared_face_normal(const CreaseCrossing& a, const CreaseCrossing& b) {
+//! Whether the creases of crossings \p a and \p b both bound one planar face: a face normal of
+//! each within kSharedFaceDeg of the other, each crossing on the other's face plane and both
+//! creases' tangents in it (all to within the same angle, seen along the chord).
+bool bound_one_face(const CreaseCrossing& a, const CreaseCrossing& b) {
   constexpr double kSharedFaceDeg = 2.0;
   const double sine = std::sin(kSharedFaceDeg * kDeg);
   const Vec3 chord = b.position - a.position;
   const double length = chord.norm();
-  if (!(length > 0)) return std::nullopt;
+  if (!(length > 0)) return false;
   for (const Vec3& fa : a.faces)
-    for (const Vec3& fb : b.faces) {
-      if (!(angle_between(fa, fb) <= kSharedFaceDeg * kDeg)) continue;
-      if (std::abs(OpenMesh::dot(fa, chord)) > sine * length ||
-          std::abs(OpenMesh::dot(fb, chord)) > sine * length)
-        continue;
-      if (std::abs(OpenMesh::dot(fa, a.inward)) > sine ||
-          std::abs(OpenMesh::dot(fb, b.inward)) > sine)
-        continue;
-      return Vec3(fa + fb).normalize_cond();
-    }
-  return std::nullopt;
+    for (const Vec3& fb : b.faces)
+      if (angle_between(fa, fb) <= kSharedFaceDeg * kDeg &&
+          std::abs(OpenMesh::dot(fa, chord)) <= sine * length &&
+          std::abs(OpenMesh::dot(fb, chord)) <= sine * length &&
+          std::abs(OpenMesh::dot(fa, a.inward)) <= sine &&
+          std::abs(OpenMesh::dot(fb, b.inward)) <= sine)
+        return true;
+  return false;
 }
 
 //! Crossings left over after the pairs and corners, joined two by two where both creases bound
@@ -1505,7 +1502,7 @@ std::vector<std::size_t> pair_along_shared_faces(
       if (ca.loop_index == cb.loop_index || ca.convex != cb.convex ||
           std::max(ca.dihedral_deg, cb.dihedral_deg) >
               options.max_pair_dihedral_ratio * std::min(ca.dihedral_deg, cb.dihedral_deg) ||
-          !shared_face_normal(ca, cb))
+          !bound_one_face(ca, cb))
         continue;
       const Vec3 chord = cb.position - ca.position;
       if (chord.norm() < kMinChordEdges * hole.mean_edge_length) continue;
