@@ -1182,11 +1182,8 @@ TEST(HoleCaseQuality, TwoCreasesBoundingOneFaceArePairedRoundItsBend) {
 TEST(HoleCaseQuality, ACreaseLeftOverEndsWhereItRunsIntoAPairedCurve) {
   const auto cut = fill_one_cut("fandisk.obj", Vec3(0.397441, 15.3644, -1.47466), 0.642317439);
   ASSERT_TRUE(cut);
-  const HoleFillReport& r = cut->report.holes[0];
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_EQ(r.creases, "3 crease crossings, 3 curves meeting at a corner");
-  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
-  EXPECT_LE(patch_distances(*cut).mean, 0.3);
+  EXPECT_EQ(expect_crease_split_fill(*cut, 0.3).creases,
+            "3 crease crossings, 3 curves meeting at a corner");
 }
 
 // A ball cut out of fandisk across its top edge by the tongue's root (the faces within 0.659 of
@@ -1198,11 +1195,7 @@ TEST(HoleCaseQuality, ACreaseLeftOverEndsWhereItRunsIntoAPairedCurve) {
 TEST(HoleCaseQuality, ACreaseThatRunsAlongTheRimToItsCornerEndsWhereItReachesTheRim) {
   const auto cut = fill_one_cut("fandisk.obj", Vec3(3.11057, 13.6048, 0), 0.658811786);
   ASSERT_TRUE(cut);
-  const HoleFillReport& r = cut->report.holes[0];
-  EXPECT_EQ(r.method, FillMethod::CreaseSplit) << r.creases;
-  EXPECT_EQ(r.creases, "2 crease crossings, 1 curve");
-  EXPECT_GE(min_angle_deg(cut->mesh, r.new_faces), 15.0);
-  EXPECT_LE(patch_distances(*cut).mean, 0.6);
+  EXPECT_EQ(expect_crease_split_fill(*cut, 0.6).creases, "2 crease crossings, 1 curve");
 }
 
 //! A slot fill along the part's creases into a corner that follows them: every triangle 15° or
