@@ -77,6 +77,16 @@ double angle_between(const Vec3& a, const Vec3& b) {
   return std::atan2(OpenMesh::cross(a, b).norm(), OpenMesh::dot(a, b));
 }
 
+//! A CAD part's surroundings: the median dihedral near the hole (median_dihedral_near) under
+//! this, FillOptions::piecewise_planar_median_deg's default. The rules that only a part's exact
+//! faces and corners justify are taken there alone (a scan bends a little at every edge).
+constexpr double kCadMedianDihedralDeg = 1.0;
+
+//! The point at \p t in [0, 1] along \p curve: its arc where it has one, else its Hermite curve.
+Vec3 point_on(const CreaseCurve& curve, double t) {
+  return curve.arc ? curve.arc->at(t) : curve.curve.at(t);
+}
+
 //! Follows the crease from the boundary vertex along \p first away from the hole: at each
 //! vertex the sharp edge that continues straightest (turning less than 60°), until the length
 //! budget, another boundary or the end of the crease.
@@ -1469,7 +1479,7 @@ bool bound_one_face(const CreaseCrossing& a, const CreaseCrossing& b) {
 //! 67° off the chord and leaves 48° off it, past `loose_pair_angle_deg`, and the 3D fill across
 //! it came out 9.8‰ off with 3.6° slivers). The Hermite curve of such a pair lies in the face's
 //! plane (its tangents do) and may turn up to a U (HermiteOptions' a(θ)). Taken only on a CAD
-//! part's surroundings (median dihedral under 1°, as join_at_corners' two-crease corner: a
+//! part's surroundings (kCadMedianDihedralDeg, as join_at_corners' two-crease corner: a
 //! scan's faces are never exactly coplanar, and a looser tangent agreement measured farther on
 //! its random cuts), when neither end's tangent turns more than kMaxTurnDeg off the chord (a
 //! crease heading away from its partner is not its partner), the crossings lie at least
@@ -1489,7 +1499,6 @@ std::vector<std::size_t> pair_along_shared_faces(
     const std::function<bool(const Vec3&)>& inside_hole) {
   constexpr double kMaxTurnDeg = 95.0;
   constexpr double kMinChordEdges = 5.0;
-  constexpr double kMaxMedianDihedralDeg = 1.0;
   struct SharedFacePair {
     double score;
     std::size_t a, b;
@@ -1510,7 +1519,7 @@ std::vector<std::size_t> pair_along_shared_faces(
           std::max(angle_between(ca.inward, chord), angle_between(cb.inward, -chord));
       if (score <= kMaxTurnDeg * kDeg) candidates.push_back({score, left[x], left[y]});
     }
-  if (candidates.empty() || !(median_dihedral() < kMaxMedianDihedralDeg))
+  if (candidates.empty() || !(median_dihedral() < kCadMedianDihedralDeg))
     return {left.begin(), left.end()};
   std::sort(candidates.begin(), candidates.end(),
             [](const SharedFacePair& p, const SharedFacePair& q) { return p.score < q.score; });
@@ -1572,7 +1581,7 @@ std::vector<std::size_t> pair_along_shared_faces(
 //! as a circular arc would, arrive_at) passes no other curve. The pair becomes the corner's two
 //! other creases, the pieces of its curve on either side; the plan keeps the pair whole too
 //! (pairs_split_at_corners), for the retry without corners. Taken only on a CAD part's
-//! surroundings (median dihedral under 1°, as pair_along_shared_faces). Returns the crossings of
+//! surroundings (kCadMedianDihedralDeg, as pair_along_shared_faces). Returns the crossings of
 //! \p left still unmatched.
 //!
 //! Measured on the cut benches (ball cuts seeds 1-12, crease slots 1-20), all on fandisk: 11 fills
@@ -1583,12 +1592,11 @@ std::vector<std::size_t> end_on_paired_curves(HoleCreasePlan& plan, MedianDihedr
                                               const Hole& hole, std::span<const std::size_t> left,
                                               double line_tolerance, const HermiteOptions& hermite,
                                               double tolerance) {
-  constexpr double kMaxMedianDihedralDeg = 1.0;
   constexpr double kMinEndEdges = 0.5;
   constexpr int kSamples = 64;
   const auto is_pair = [](const CreaseCurve& c) { return c.to && !c.arc; };
   if (left.empty() || std::none_of(plan.curves.begin(), plan.curves.end(), is_pair) ||
-      !(median_dihedral() < kMaxMedianDihedralDeg))
+      !(median_dihedral() < kCadMedianDihedralDeg))
     return {left.begin(), left.end()};
   const double mean_edge = hole.mean_edge_length;
   const double near = kMinEndEdges * mean_edge;
@@ -1652,17 +1660,16 @@ std::vector<std::size_t> end_on_paired_curves(HoleCreasePlan& plan, MedianDihedr
     // The crease's curve may pass no other curve on its way (only its end touches the pair's).
     const std::vector<CurveSample> path = sample_by_arc_length(arriving.curve, 0.5 * mean_edge);
     bool passes = false;
+    std::vector<Vec3> other(kSamples + 1);
     for (std::size_t i = 0; i < plan.curves.size() && !passes; ++i) {
-      const CreaseCurve& other = plan.curves[i];
-      const auto other_at = [&](int k) {
-        const double t = static_cast<double>(k) / kSamples;
-        return other.arc ? other.arc->at(t) : other.curve.at(t);
-      };
+      for (int k = 0; k <= kSamples; ++k)
+        other[static_cast<std::size_t>(k)] =
+            point_on(plan.curves[i], static_cast<double>(k) / kSamples);
       for (std::size_t j = 0; j + 1 < path.size() && !passes; ++j) {
         if ((path[j + 1].point - corner).norm() < near) break;
-        for (int k = 0; k < kSamples && !passes; ++k)
-          passes = segment_segment_distance2(path[j].point, path[j + 1].point, other_at(k),
-                                             other_at(k + 1)) < 0.0625 * mean_edge * mean_edge;
+        for (std::size_t k = 0; k + 1 < other.size() && !passes; ++k)
+          passes = segment_segment_distance2(path[j].point, path[j + 1].point, other[k],
+                                             other[k + 1]) < 0.0625 * mean_edge * mean_edge;
       }
     }
     if (passes) {
@@ -1709,13 +1716,15 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                      const std::function<bool(const Vec3&)>& inside_hole) {
   FaceNormals normals(mesh, 16 * hole.loop.size());
   return join_at_corners(plan, normals, hole, crossings, line_tolerance, two_corner_gain, hermite,
-                         tolerance, inside_hole);
+                         tolerance, inside_hole,
+                         [&] { return median_dihedral_near(mesh, hole, normals); });
 }
 
 bool join_at_corners(HoleCreasePlan& plan, FaceNormals& normals, const Hole& hole,
                      std::span<const std::size_t> crossings, double line_tolerance,
                      double two_corner_gain, const HermiteOptions& hermite, double tolerance,
-                     const std::function<bool(const Vec3&)>& inside_hole) {
+                     const std::function<bool(const Vec3&)>& inside_hole,
+                     const std::function<double()>& median_dihedral) {
   if (crossings.size() < 2) return false;
   const Mesh& mesh = normals.mesh();
   // Two corners need only lie near the rim's ball (RunCorners), not inside the hole's
@@ -1749,17 +1758,16 @@ bool join_at_corners(HoleCreasePlan& plan, FaceNormals& normals, const Hole& hol
     // slot s9c4 hole 299) meet at a corner of their own if they are clean, their bent creases
     // meet inside the hole within the tolerance, and the corner is not on the rim (half a mean
     // rim edge from either crossing: there the creases end at a corner on the rim, and the
-    // curve to the corner would be a sliver, 0.2°), on a CAD part's surroundings (median
-    // dihedral under 1°, FillOptions::piecewise_planar_median_deg's default: a hand scan's
-    // finger gaps took such corners and came out farther, 3.6 -> 7.6 per mille).
+    // curve to the corner would be a sliver, 0.2°), on a CAD part's surroundings
+    // (kCadMedianDihedralDeg: a hand scan's finger gaps took such corners and came out
+    // farther, 3.6 -> 7.6 per mille).
     const RunCorners::Run& both = runs.at(0, 2);
     if (!both.corner || !runs.bends_are_fitted(both.crossings) || !inside_hole(*both.corner) ||
         both.farthest > line_tolerance)
       return false;
     for (const std::size_t i : both.crossings)
       if ((*both.corner - plan.crossings[i].position).norm() < half_edge) return false;
-    constexpr double kMaxMedianDihedralDeg = 1.0;
-    if (!(median_dihedral_near(mesh, hole, normals) < kMaxMedianDihedralDeg)) return false;
+    if (!(median_dihedral() < kCadMedianDihedralDeg)) return false;
     add_corner(plan, both.crossings, *both.corner, hermite, tolerance);
     return true;
   }
@@ -2368,9 +2376,11 @@ HoleCreasePlan plan_hole_creases(FaceNormals& normals, const Hole& hole,
   const auto inside_hole = [&](const Vec3& p) {
     return point_in_polygon(polygon, frame.project(p));
   };
+  MedianDihedral median_dihedral(normals, hole, median_dihedral_deg);
+  const auto median = [&] { return median_dihedral(); };
   if (left.size() >= 3 && corner_side_ok &&
       join_at_corners(plan, normals, hole, left, options.corner_tolerance * diameter,
-                      options.two_corner_gain, options.hermite, tolerance, inside_hole))
+                      options.two_corner_gain, options.hermite, tolerance, inside_hole, median))
     left.clear();
   if (!left.empty())
     left =
@@ -2380,9 +2390,8 @@ HoleCreasePlan plan_hole_creases(FaceNormals& normals, const Hole& hole,
   // Two creases left over that end at no corner on the rim may meet inside the hole.
   if (left.size() == 2 && plan.corners.empty() &&
       join_at_corners(plan, normals, hole, left, options.corner_tolerance * diameter,
-                      options.two_corner_gain, options.hermite, tolerance, inside_hole))
+                      options.two_corner_gain, options.hermite, tolerance, inside_hole, median))
     left.clear();
-  MedianDihedral median_dihedral(normals, hole, median_dihedral_deg);
   if (left.size() >= 2)
     left =
         pair_along_shared_faces(plan, median_dihedral, hole, left, options, tolerance, inside_hole);
@@ -2468,10 +2477,7 @@ std::optional<HoleCreasePlan> plan_without_weakest_curve(const HoleCreasePlan& p
     constexpr int kSamples = 16;
     for (std::size_t i = 0; i < plan.curves.size(); ++i) {
       const CreaseCurve& c = plan.curves[i];
-      const auto at = [&](int k) {
-        const double t = static_cast<double>(k) / kSamples;
-        return c.arc ? c.arc->at(t) : c.curve.at(t);
-      };
+      const auto at = [&](int k) { return point_on(c, static_cast<double>(k) / kSamples); };
       for (int k = 0; k < kSamples; ++k) consider(at(k), at(k + 1), i);
     }
     for (const auto& [a, b] : plan.corner_links)

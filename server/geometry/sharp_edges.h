@@ -270,11 +270,14 @@ bool join_at_corners(HoleCreasePlan& plan, const Mesh& mesh, const Hole& hole,
                      double two_corner_gain, const HermiteOptions& hermite, double tolerance,
                      const std::function<bool(const Vec3&)>& inside_hole);
 
-//! The same, with the face normals around the hole read from (and added to) \p normals.
+//! The same, with the face normals around the hole read from (and added to) \p normals, and
+//! the median_dihedral_near of the hole asked of \p median_dihedral (only two crossings need
+//! it; the crease plan works it out once for all its rules).
 bool join_at_corners(HoleCreasePlan& plan, FaceNormals& normals, const Hole& hole,
                      std::span<const std::size_t> crossings, double line_tolerance,
                      double two_corner_gain, const HermiteOptions& hermite, double tolerance,
-                     const std::function<bool(const Vec3&)>& inside_hole);
+                     const std::function<bool(const Vec3&)>& inside_hole,
+                     const std::function<double()>& median_dihedral);
 
 //! The crease that a pick P1 points at from vertex \p at (P2's or P3's vertex on the rim):
 //! the chain of edges sharper than \p angle_deg that leaves \p at, continues straightest and
