@@ -206,7 +206,8 @@ struct FillReport {
   std::vector<HoleFillReport> holes;
   std::vector<std::uint32_t> unknown_ids;  //!< requested ids that name no hole
   std::size_t holes_found = 0;
-  //! The per-mesh preparation (the longest edge; headroom in the arrays), in no hole's time.
+  //! The call's preparation before its first fill (the search reach over the whole mesh;
+  //! headroom in the arrays; the ring borders), in no hole's time but part of the call's.
   double prepare_seconds = 0;
   std::size_t filled() const;
   std::size_t left_open() const;  //!< neither filled, skipped, nor closed by a fragment's removal

@@ -62,9 +62,19 @@ struct SearchReach {
   double longest_edge = 0;
   std::vector<FaceHandle> long_faces;
   std::vector<Eigen::AlignedBox3d> long_boxes;  //!< the boxes of long_faces, in their order
-  //! Optional: where the vertices are. The mesh's existing vertices must not move while it is
+  //! Vertices below this index may be filed in a grid (0: never; make_search_reach's
+  //! with_grid on a mesh of 8,192 vertices or more). They must not move while the reach is
   //! used (a fill moves only the vertices it adds).
-  VertexGrid grid;
+  std::size_t grid_below = 0;
+  //! Where those vertices are, filed by the searches once they have scanned the mesh about as
+  //! often as the filing costs; no search's result depends on whether it is there. A cache
+  //! kept by const searches, so a reach is used by one thread at a time (as the fills use it).
+  mutable VertexGrid grid;
+  mutable std::size_t scanned = 0;  //!< vertices the searches scanned before the filing
+  //! Tells the reach that at least \p searches searches will follow (a fill call: one per hole
+  //! at least); when they are more than the scans filing costs, the first search the grid
+  //! would serve files the vertices.
+  void expect_searches(std::size_t searches);
   //! Files \p faces, added to the mesh: on long_faces those with an edge over longest_edge.
   void add(const Mesh& mesh, std::span<const FaceHandle> faces);
 };

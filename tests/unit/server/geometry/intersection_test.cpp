@@ -179,8 +179,9 @@ TEST(MeshIntersections, GroupsSkipOnlyTheirOwnPairs) {
 }
 
 // The reach's grid of vertices and list of long faces must find exactly what a scan of every face
-// finds: on a mesh large enough to get a grid, with long faces beside fine ones, and after new
-// vertices and faces were added (as a fill adds them).
+// finds: on a mesh large enough to get a grid (filed by the searches once they have scanned the
+// mesh a few times), with long faces beside fine ones, and after new vertices and faces were
+// added (as a fill adds them).
 TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
   MeshSoup soup = testing::uv_sphere(1, 128, 72);  // fine: > 8,192 vertices
   const auto offset = static_cast<std::uint32_t>(soup.points.size());
@@ -190,7 +191,8 @@ TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
     soup.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
   Mesh mesh = build_mesh(soup).mesh;
   SearchReach reach = make_search_reach(mesh);
-  ASSERT_FALSE(reach.grid.empty());
+  ASSERT_GT(reach.grid_below, 0u);
+  EXPECT_TRUE(reach.grid.empty());  // not filed before the searches have scanned enough
   ASSERT_FALSE(reach.long_faces.empty());
   EXPECT_LT(reach.longest_edge, max_edge_length(mesh));
 
@@ -232,7 +234,8 @@ TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
     nonempty += expected.empty() ? 0 : 1;
     ASSERT_EQ(searched(box), expected) << "box " << i;
   }
-  EXPECT_GT(nonempty, 60u);  // most boxes meet faces
+  EXPECT_GT(nonempty, 60u);          // most boxes meet faces
+  EXPECT_FALSE(reach.grid.empty());  // filed along the way
   const Box3 at_long_face(Eigen::Vector3d(1.65, 0.4, 0.4), Eigen::Vector3d(1.66, 0.41, 0.41));
   EXPECT_EQ(searched(at_long_face), std::vector<int>{added[0].idx()});
   const Box3 at_short_face(Eigen::Vector3d(1.605, 0.09, 0.09), Eigen::Vector3d(1.61, 0.11, 0.095));
@@ -253,6 +256,36 @@ TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
   const auto with_grid = pairs(find_face_intersections(mesh, cube_faces, 0, reach));
   EXPECT_FALSE(with_grid.empty());
   EXPECT_EQ(with_grid, pairs(find_face_intersections(mesh, cube_faces, 0, max_edge_length(mesh))));
+}
+
+// A search lists what it finds in the same order with the grid as by a scan of every vertex (the
+// order a fill's first crossing found depends on, and with it the fill): whether and when the
+// searches filed the vertices changes no result.
+TEST(MeshIntersections, TheGridChangesNoSearchsOrder) {
+  Mesh mesh = build_mesh(testing::uv_sphere(1, 128, 72)).mesh;
+  const SearchReach gridded = make_search_reach(mesh);
+  const SearchReach scanning = make_search_reach(mesh, /*with_grid=*/false);
+  ASSERT_GT(gridded.grid_below, 0u);
+  ASSERT_EQ(scanning.grid_below, 0u);
+  const auto listed = [&](const Box3& box, const SearchReach& reach) {
+    std::vector<int> out;
+    for (const FaceHandle f : faces_in_box(mesh, box, reach)) out.push_back(f.idx());
+    return out;
+  };
+  std::size_t compared = 0;
+  for (int i = 0; i < 60; ++i) {
+    // Boxes from about an edge to a fifth of the sphere's radius, centred on its surface.
+    const double size = 0.01 * std::pow(1.05, i);
+    const Vec3 c = Vec3(std::sin(1.3 * i), std::cos(0.7 * i), std::sin(2.1 * i + 0.5)).normalized();
+    const Box3 box(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
+                   Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
+    const std::vector<int> by_scan = listed(box, scanning);
+    const std::vector<int> by_grid = listed(box, gridded);
+    ASSERT_EQ(by_grid, by_scan) << "box " << i;
+    compared += by_scan.size() > 1 ? 1 : 0;
+  }
+  EXPECT_FALSE(gridded.grid.empty());  // the later searches went through the grid
+  EXPECT_GT(compared, 50u);
 }
 
 }  // namespace
