@@ -2123,9 +2123,13 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
       auto [outer_report, inner_report] = fill_ring(mesh, outer, inner, options, reach);
       if (!outer_report.filled) {
         // Each alone, in the selection's order, as if they had not been paired.
+        const auto properties_start = Clock::now();
         if (!selected[i]->projectability_computed)
           compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
+        const double properties_seconds = seconds_since(properties_start);
         report.holes.push_back(fill_hole_cached(mesh, hole, options, reach));
+        report.holes.back().seconds += properties_seconds;
+        report.holes.back().phases.plan += properties_seconds;
         ring_partner[partner].reset();
       } else {
         report.holes.push_back(std::move(ring_outer[i] ? outer_report : inner_report));
@@ -2140,10 +2144,16 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
                                    selection.max_boundary);
       report.holes.push_back(std::move(skipped));
     } else {
+      // The projectability test (simple or complex, seed 001) is the fill's first step: its
+      // time is the hole's.
+      const auto properties_start = Clock::now();
       if (!selected[i]->projectability_computed) {
         compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
       }
+      const double properties_seconds = seconds_since(properties_start);
       report.holes.push_back(fill_hole_cached(mesh, hole, options, reach));
+      report.holes.back().seconds += properties_seconds;
+      report.holes.back().phases.plan += properties_seconds;
     }
     if (progress && !progress(i + 1, selected.size())) break;
   }

@@ -158,7 +158,8 @@ struct HoleFillReport {
   double seconds = 0;
   //! Where the time went (all attempts; seconds): what a slow fill spent it on.
   struct Phases {
-    double plan = 0;         //!< the shape decision and the crease plan (once per hole)
+    double plan = 0;         //!< the hole's projectability (in fill_holes), the shape decision and
+                             //!< the crease plan (once per hole)
     double triangulate = 0;  //!< the triangulations of every method tried
     double refine = 0;       //!< Algorithm III
     double mend = 0;         //!< patch_quality

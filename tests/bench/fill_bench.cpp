@@ -139,9 +139,10 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", repeat, "Timing repetitions (median is reported)")
       ->check(CLI::Range(1, 100));
   app.add_flag("--no-cgal", no_cgal, "Skip CGAL even if available");
-  app.add_flag("--phases", phases,
-               "Also print where each hole's time went (shape and crease plan, triangulate, "
-               "refine, mend, fair, check)");
+  app.add_flag(
+      "--phases", phases,
+      "Also print where each hole's time went (projectability, shape and crease plan, triangulate, "
+      "refine, mend, fair, check)");
   int refine = 3;
   double feature_angle = -1;
   std::string weights = "cotangent";
@@ -380,7 +381,8 @@ int main(int argc, char** argv) {
           best, quality.min_angle_deg, cgal_min_angle, quality.max_aspect_ratio, si);
       if (phases)
         fmt::print(
-            "|   phases of the scored run, ms: shape and crease plan {:.3f}, triangulate {:.3f}, "
+            "|   phases of the scored run, ms: projectability, shape and crease plan {:.3f}, "
+            "triangulate {:.3f}, "
             "refine {:.3f}, mend {:.3f}, fair {:.3f}, check {:.3f}; the fill call's preparation "
             "(search reach, headroom; median, counted once in the case's time) {:.3f}\n",
             1e3 * h.phases.plan, 1e3 * h.phases.triangulate, 1e3 * h.phases.refine,
