@@ -1096,6 +1096,46 @@ Box3 hole_region(const Hole& hole, const LoopData& loop) {
   return region;
 }
 
+//! How many faces along \p hole's loop (the face across each boundary edge) lie inside the
+//! loop's outline, in its own plane: 0 unless the loop is planar (within a thousandth of its
+//! mean edge; CAD faces are exact, a scan's noise is far above that) and its outline simple.
+//! Around a hole the faces lie outside it. A planar loop with faces inside it is the outer
+//! border of a flat piece instead (an island a cut left joined to the mesh only elsewhere, as a
+//! ring round a bore's mouth held by the bore's wall; or a sheet's edge): the surface it
+//! borders lies inside, so every patch over it would lie on those faces.
+std::size_t rim_faces_inside_planar_loop(const Mesh& mesh, const Hole& hole) {
+  const std::size_t n = hole.loop.size();
+  if (n < 3 || hole.halfedges.size() != n) return 0;
+  std::vector<Vec3> points;
+  Vec3 centroid(0, 0, 0);
+  for (const VertexHandle v : hole.loop) {
+    points.push_back(mesh.point(v));
+    centroid += points.back();
+  }
+  centroid /= static_cast<double>(n);
+  const Vec3 normal = pca_normal(points, hole.normal);
+  const double tolerance = 1e-3 * hole.mean_edge_length;
+  const auto off_plane = [&](const Vec3& p) {
+    return !(std::abs(OpenMesh::dot(p - centroid, normal)) <= tolerance);
+  };
+  if (!(normal.sqrnorm() > 0) || std::any_of(points.begin(), points.end(), off_plane)) return 0;
+  const ReferenceFrame frame = ReferenceFrame::from_normal(normal, centroid);
+  std::vector<Point2> outline;
+  for (const Vec3& p : points) outline.push_back(frame.project(p));
+  if (count_self_intersections(outline) != 0) return 0;
+  std::size_t inside = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const HalfedgeHandle in_face = mesh.opposite_halfedge_handle(hole.halfedges[i]);
+    if (mesh.is_boundary(in_face)) continue;
+    const Vec3 third = mesh.point(mesh.to_vertex_handle(mesh.next_halfedge_handle(in_face)));
+    if (off_plane(third)) continue;
+    // The face's centroid: strictly inside or outside the outline, never on it.
+    const Vec3 middle = (points[i] + points[(i + 1) % n] + third) / 3.0;
+    if (point_in_polygon(outline, frame.project(middle))) ++inside;
+  }
+  return inside;
+}
+
 //! The smallest angle between two consecutive boundary edges of \p hole (degrees). Under 15°
 //! the rim turns back on itself there: either a corner under 15° (no triangle at it can be
 //! wider) or a slit. The faired patch's second build without bisections (fill_disk_hole) is
@@ -1813,6 +1853,14 @@ HoleFillReport fill_disk_hole(Mesh& mesh, const Hole& hole, const FillOptions& o
           "repair it there first",
           pairs >= kCountUpTo ? "at least " : "", pairs);
   }
+  if (hole.fragment_faces == 0)
+    if (const std::size_t inside = rim_faces_inside_planar_loop(mesh, hole); inside > 0)
+      report.reason += fmt::format(
+          "; {} of the faces along the loop lie inside its outline, in its own plane: the loop is "
+          "the outer border of a flat piece (an island joined to the mesh only elsewhere, such "
+          "as a ring round a bore's mouth held by the bore's wall, or a sheet's edge), so what "
+          "is missing lies outside it, and every patch over the loop would lie on the piece",
+          inside);
   if (const std::size_t piece = hole.fragment_faces; piece > 0)
     report.reason += fmt::format(
         "; the loop is the whole border of a separate piece of {} face{} (a fragment, not a "

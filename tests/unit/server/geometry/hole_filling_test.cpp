@@ -716,6 +716,51 @@ TEST(FillHole, FragmentsAreRemovedOnlyWhenAskedAndOnlySmallOnes) {
   EXPECT_EQ(mesh.n_vertices(), debris.points.size() - 3);
 }
 
+// A cut that takes the plate's second ring round a counterbore's mouth leaves the first ring as
+// an island, held only by the counterbore's wall (couplingdown's ball cuts s2c9 and s12c1 leave
+// such rings round its bores). Its outer border, filled alone, stays open: every patch over it
+// would lie on the island, and the reason says the faces along the loop lie inside it. The
+// plate's inner border, also planar and left open alone (its patch would cover the island), has
+// its faces outside it: no such note.
+TEST(FillHole, AnIslandsBorderIsLeftOpenWithTheFacesInsideItNamed) {
+  constexpr int kAround = 24;
+  constexpr double kRadius = 2.0, kDepth = 0.5, kBoreRadius = 1.0, kBoreDepth = 2.0;
+  const MeshSoup soup = testing::remove_faces(
+      testing::plate_with_a_counterbore(kAround, kRadius, kDepth, kBoreRadius, kBoreDepth),
+      [&](const Vec3& c) {
+        const double r = std::hypot(c[0], c[1]);
+        return std::abs(c[2]) < 1e-9 && r > kRadius + 1 && r < kRadius + 2;
+      });
+  const Mesh original = build_mesh(soup).mesh;
+  const auto hole_at = [&](double radius) -> std::uint32_t {
+    for (const Hole& h : find_holes(original).holes) {
+      double mean = 0;
+      for (const VertexHandle v : h.loop)
+        mean += std::hypot(original.point(v)[0], original.point(v)[1]);
+      if (std::abs(mean / static_cast<double>(h.loop.size()) - radius) < 0.05) return h.id;
+    }
+    ADD_FAILURE() << "no loop at radius " << radius;
+    return 0;
+  };
+  const auto fill_alone = [&](std::uint32_t id) {
+    Mesh mesh = original;
+    FillSelection one;
+    one.mode = FillSelection::Mode::Ids;
+    one.ids = {id};
+    const FillReport report = fill_holes(mesh, one, FillOptions{});
+    EXPECT_EQ(report.holes.size(), 1u);
+    return report.holes.empty() ? HoleFillReport{} : report.holes[0];
+  };
+  constexpr std::string_view kNote = "of the faces along the loop lie inside its outline";
+  const HoleFillReport island = fill_alone(hole_at(kRadius + 1));
+  EXPECT_FALSE(island.filled);
+  EXPECT_NE(island.reason.find(fmt::format("{} {}", kAround, kNote)), std::string::npos)
+      << island.reason;
+  const HoleFillReport plate = fill_alone(hole_at(kRadius + 2));
+  EXPECT_FALSE(plate.filled);
+  EXPECT_EQ(plate.reason.find(kNote), std::string::npos) << plate.reason;
+}
+
 TEST(FillHole, ThreeEdgeHoleGetsOneTriangle) {
   MeshSoup s = testing::cube(2);
   s.triangles.erase(s.triangles.begin() + 5);
