@@ -1105,21 +1105,17 @@ Box3 hole_region(const Hole& hole, const LoopData& loop) {
 //! borders lies inside, so every patch over it would lie on those faces.
 std::size_t rim_faces_inside_planar_loop(const Mesh& mesh, const Hole& hole) {
   const std::size_t n = hole.loop.size();
-  if (n < 3 || hole.halfedges.size() != n) return 0;
-  std::vector<Vec3> points;
-  Vec3 centroid(0, 0, 0);
-  for (const VertexHandle v : hole.loop) {
-    points.push_back(mesh.point(v));
-    centroid += points.back();
-  }
-  centroid /= static_cast<double>(n);
-  const Vec3 normal = pca_normal(points, hole.normal);
   const double tolerance = 1e-3 * hole.mean_edge_length;
+  if (n < 3 || hole.halfedges.size() != n || !(hole.planarity <= tolerance)) return 0;
+  std::vector<Vec3> points;
+  for (const VertexHandle v : hole.loop) points.push_back(mesh.point(v));
+  // The plane hole.planarity was measured to (compute_hole_properties).
+  const Vec3 normal = pca_normal(points, hole.normal);
+  if (!(normal.sqrnorm() > 0)) return 0;
   const auto off_plane = [&](const Vec3& p) {
-    return !(std::abs(OpenMesh::dot(p - centroid, normal)) <= tolerance);
+    return !(std::abs(OpenMesh::dot(p - hole.centroid, normal)) <= tolerance);
   };
-  if (!(normal.sqrnorm() > 0) || std::any_of(points.begin(), points.end(), off_plane)) return 0;
-  const ReferenceFrame frame = ReferenceFrame::from_normal(normal, centroid);
+  const ReferenceFrame frame = ReferenceFrame::from_normal(normal, hole.centroid);
   std::vector<Point2> outline;
   for (const Vec3& p : points) outline.push_back(frame.project(p));
   if (count_self_intersections(outline) != 0) return 0;
@@ -2160,6 +2156,18 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
   }
   std::vector<std::optional<HoleFillReport>> filled_with_partner(selected.size());
   report.prepare_seconds = seconds_since(prepare_start);
+  // One selected hole alone. Its projectability test (simple or complex, seed 001), made here if
+  // the search skipped it, is the fill's first step: its time is the hole's.
+  const auto fill_selected = [&](std::size_t i) {
+    const auto start = Clock::now();
+    if (!selected[i]->projectability_computed)
+      compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
+    const double properties_seconds = seconds_since(start);
+    HoleFillReport filled = fill_hole_cached(mesh, *selected[i], options, reach);
+    filled.seconds += properties_seconds;
+    filled.phases.plan += properties_seconds;
+    return filled;
+  };
   for (std::size_t i = 0; i < selected.size(); ++i) {
     const Hole& hole = *selected[i];  // properties completed just before filling
     if (filled_with_partner[i]) {
@@ -2171,13 +2179,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
       auto [outer_report, inner_report] = fill_ring(mesh, outer, inner, options, reach);
       if (!outer_report.filled) {
         // Each alone, in the selection's order, as if they had not been paired.
-        const auto properties_start = Clock::now();
-        if (!selected[i]->projectability_computed)
-          compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
-        const double properties_seconds = seconds_since(properties_start);
-        report.holes.push_back(fill_hole_cached(mesh, hole, options, reach));
-        report.holes.back().seconds += properties_seconds;
-        report.holes.back().phases.plan += properties_seconds;
+        report.holes.push_back(fill_selected(i));
         ring_partner[partner].reset();
       } else {
         report.holes.push_back(std::move(ring_outer[i] ? outer_report : inner_report));
@@ -2192,16 +2194,7 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
                                    selection.max_boundary);
       report.holes.push_back(std::move(skipped));
     } else {
-      // The projectability test (simple or complex, seed 001) is the fill's first step: its
-      // time is the hole's.
-      const auto properties_start = Clock::now();
-      if (!selected[i]->projectability_computed) {
-        compute_hole_properties(mesh, *selected[i], /*compute_projectability=*/true);
-      }
-      const double properties_seconds = seconds_since(properties_start);
-      report.holes.push_back(fill_hole_cached(mesh, hole, options, reach));
-      report.holes.back().seconds += properties_seconds;
-      report.holes.back().phases.plan += properties_seconds;
+      report.holes.push_back(fill_selected(i));
     }
     if (progress && !progress(i + 1, selected.size())) break;
   }

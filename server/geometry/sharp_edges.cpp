@@ -1290,6 +1290,16 @@ CreaseCrossing crossing_ending_at(const CreaseCrossing& arriving, std::size_t lo
   return c;
 }
 
+//! Whether a chord between loop indices \p la and \p lb separates the two ends of a pair of
+//! \p plan (a curve between two crossings).
+bool separates_a_pair(const HoleCreasePlan& plan, std::size_t la, std::size_t lb) {
+  for (const CreaseCurve& c : plan.curves)
+    if (c.to &&
+        interleaved(la, lb, plan.crossings[c.from].loop_index, plan.crossings[*c.to].loop_index))
+      return true;
+  return false;
+}
+
 //! Creases left over that run straight into a rim vertex where a crease meets the rim end
 //! there: the cut went through a corner of the part, so the creases meet on the rim and not
 //! inside the hole (the least-squares corner of join_at_corners then falls on the rim, outside
@@ -1314,13 +1324,6 @@ std::vector<std::size_t> end_at_rim_corners(HoleCreasePlan& plan, FaceNormals& n
   const auto on_crease = [&](std::size_t j) {
     for (const HalfedgeHandle o : mesh.voh_range(hole.loop[j]))
       if (is_sharp(normals, o, sharp)) return true;
-    return false;
-  };
-  const auto crosses_a_curve = [&](std::size_t la, std::size_t lb) {
-    for (const CreaseCurve& c : plan.curves)
-      if (c.to &&
-          interleaved(la, lb, plan.crossings[c.from].loop_index, plan.crossings[*c.to].loop_index))
-        return true;
     return false;
   };
   // Whether a curve of \p plan leaves loop vertex j within kMinCurveAngleDeg of the direction
@@ -1395,7 +1398,7 @@ std::vector<std::size_t> end_at_rim_corners(HoleCreasePlan& plan, FaceNormals& n
     // 0.003‰). Without the rim edges held to the line, a curved ridge's tangent took a vertex
     // where the rim turns away (s2c1 hole 1137 2.55 -> 3.40‰).
     if (!best || !(on_crease(*best) || runs_along_rim_to_crease(ca, *best)) ||
-        crosses_a_curve(ca.loop_index, *best) || beside_a_curve(*best, ca.position))
+        separates_a_pair(plan, ca.loop_index, *best) || beside_a_curve(*best, ca.position))
       continue;
     const std::size_t j = *best;
     const Vec3 corner = mesh.point(hole.loop[j]);
@@ -1532,13 +1535,9 @@ std::vector<std::size_t> pair_along_shared_faces(
       const std::size_t offset = (plan.crossings[i].loop_index + n - la) % n;
       return offset > 0 && offset < span;
     };
+    if (separates_a_pair(plan, la, lb)) return true;
     for (const CreaseCurve& c : plan.curves) {
-      if (c.to) {
-        if (interleaved(la, lb, plan.crossings[c.from].loop_index,
-                        plan.crossings[*c.to].loop_index))
-          return true;
-        continue;
-      }
+      if (c.to) continue;
       for (const CreaseCurve& d : plan.curves)
         if (!d.to && d.corner == c.corner && inside(c.from) != inside(d.from)) return true;
     }
