@@ -66,6 +66,13 @@ struct SearchReach {
   //! with_grid on a mesh of 8,192 vertices or more). They must not move while the reach is
   //! used (a fill moves only the vertices it adds).
   std::size_t grid_below = 0;
+  //! Runs of kVertexBlock consecutive vertex indices below blocks_below and the box of each
+  //! run's vertices: a scan passes over a run whose box misses the searched box without reading
+  //! its points. The same rule as for the grid: those vertices must not move while the reach is
+  //! used.
+  static constexpr std::size_t kVertexBlock = 32;
+  std::size_t blocks_below = 0;
+  std::vector<Eigen::AlignedBox3d> block_boxes;
   //! Where those vertices are, filed by the searches once they have scanned the mesh about as
   //! often as the filing costs; no search's result depends on whether it is there. A cache
   //! kept by const searches, so a reach is used by one thread at a time (as the fills use it).
@@ -80,9 +87,9 @@ struct SearchReach {
 };
 
 //! The reach for \p mesh: longest_edge is a few times the median edge (capped by the longest
-//! edge), the faces with a longer edge are listed, and, with \p with_grid and a mesh of more
-//! than a few thousand vertices, the vertices are filed in a grid of cells that size (worth it
-//! for several searches, like a fill's; a single search scans the vertices as fast).
+//! edge), the faces with a longer edge are listed, the vertices' runs are boxed, and, with
+//! \p with_grid and a mesh of more than a few thousand vertices, the vertices may be filed in a
+//! grid of cells that size by the searches (worth it for many searches; a few scan as fast).
 SearchReach make_search_reach(const Mesh& mesh, bool with_grid = true);
 
 //! Every face whose bounding box meets \p box. Found through the vertices within

@@ -224,18 +224,28 @@ TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
     return out;
   };
   std::size_t nonempty = 0;
-  for (int i = 0; i < 200; ++i) {
-    // Boxes from a point's size to the whole mesh, all over it.
-    const double size = 0.002 * std::pow(1.04, i);
-    const Vec3 c(std::sin(1.7 * i) * 1.2, std::cos(2.3 * i) * 1.2, std::sin(0.9 * i + 1) * 1.2);
-    const Box3 box(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
-                   Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
-    const std::vector<int> expected = scan(box);
-    nonempty += expected.empty() ? 0 : 1;
-    ASSERT_EQ(searched(box), expected) << "box " << i;
+  // First by scans passing over the runs of vertices whose boxes miss (the added vertices are
+  // past the last run, which is not full), then with the grid, filed at the first search it
+  // serves once the reach expects many.
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) {
+      EXPECT_TRUE(reach.grid.empty());
+      reach.expect_searches(1000);
+    }
+    for (int i = 0; i < 200; ++i) {
+      // Boxes from a point's size to the whole mesh, all over it.
+      const double size = 0.002 * std::pow(1.04, i);
+      const Vec3 c(std::sin(1.7 * i) * 1.2, std::cos(2.3 * i) * 1.2, std::sin(0.9 * i + 1) * 1.2);
+      const Box3 box(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
+                     Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
+      const std::vector<int> expected = scan(box);
+      nonempty += expected.empty() ? 0 : 1;
+      ASSERT_EQ(searched(box), expected) << "pass " << pass << ", box " << i;
+    }
   }
-  EXPECT_GT(nonempty, 60u);          // most boxes meet faces
+  EXPECT_GT(nonempty, 120u);         // most boxes meet faces
   EXPECT_FALSE(reach.grid.empty());  // filed along the way
+  ASSERT_NE(reach.blocks_below % SearchReach::kVertexBlock, 0u);
   const Box3 at_long_face(Eigen::Vector3d(1.65, 0.4, 0.4), Eigen::Vector3d(1.66, 0.41, 0.41));
   EXPECT_EQ(searched(at_long_face), std::vector<int>{added[0].idx()});
   const Box3 at_short_face(Eigen::Vector3d(1.605, 0.09, 0.09), Eigen::Vector3d(1.61, 0.11, 0.095));
@@ -258,15 +268,20 @@ TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
   EXPECT_EQ(with_grid, pairs(find_face_intersections(mesh, cube_faces, 0, max_edge_length(mesh))));
 }
 
-// A search lists what it finds in the same order with the grid as by a scan of every vertex (the
-// order a fill's first crossing found depends on, and with it the fill): whether and when the
-// searches filed the vertices changes no result.
+// A search lists what it finds in the same order with the grid, with the runs of vertices passed
+// over by their boxes, and by a scan of every vertex (the order a fill's first crossing found
+// depends on, and with it the fill): whether and when the searches filed the vertices, and which
+// runs they skipped, changes no result.
 TEST(MeshIntersections, TheGridChangesNoSearchsOrder) {
   Mesh mesh = build_mesh(testing::uv_sphere(1, 128, 72)).mesh;
-  const SearchReach gridded = make_search_reach(mesh);
+  SearchReach gridded = make_search_reach(mesh);
+  gridded.expect_searches(1000);  // filed at the first search it serves
   const SearchReach scanning = make_search_reach(mesh, /*with_grid=*/false);
+  SearchReach every_vertex = make_search_reach(mesh, /*with_grid=*/false);
+  every_vertex.blocks_below = 0;
   ASSERT_GT(gridded.grid_below, 0u);
   ASSERT_EQ(scanning.grid_below, 0u);
+  ASSERT_GT(scanning.blocks_below, 0u);
   const auto listed = [&](const Box3& box, const SearchReach& reach) {
     std::vector<int> out;
     for (const FaceHandle f : faces_in_box(mesh, box, reach)) out.push_back(f.idx());
@@ -279,9 +294,9 @@ TEST(MeshIntersections, TheGridChangesNoSearchsOrder) {
     const Vec3 c = Vec3(std::sin(1.3 * i), std::cos(0.7 * i), std::sin(2.1 * i + 0.5)).normalized();
     const Box3 box(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
                    Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
-    const std::vector<int> by_scan = listed(box, scanning);
-    const std::vector<int> by_grid = listed(box, gridded);
-    ASSERT_EQ(by_grid, by_scan) << "box " << i;
+    const std::vector<int> by_scan = listed(box, every_vertex);
+    ASSERT_EQ(listed(box, gridded), by_scan) << "box " << i;
+    ASSERT_EQ(listed(box, scanning), by_scan) << "box " << i;
     compared += by_scan.size() > 1 ? 1 : 0;
   }
   EXPECT_FALSE(gridded.grid.empty());  // the later searches went through the grid
