@@ -92,8 +92,8 @@ void for_each_vertex_near(const Mesh& mesh, const Box3& box, const SearchReach& 
   // scan was most of a search: the rocker arm's crease patch reads 37 of 313 runs.
   const auto scan_from = [&](std::size_t first) {
     constexpr std::size_t kBlock = SearchReach::kVertexBlock;
-    const std::size_t blocked = std::min({reach.blocks_below, n_vertices,
-                                          reach.block_boxes.size() * kBlock});
+    const std::size_t blocked =
+        std::min({reach.blocks_below, n_vertices, reach.block_boxes.size() * kBlock});
     std::size_t read = 0;
     std::size_t i = first;
     while (i < blocked) {
