@@ -303,9 +303,11 @@ SearchReach make_search_reach(const Mesh& mesh, bool with_grid) {
     const int b = mesh.to_vertex_handle(HalfedgeHandle(static_cast<int>(2 * i + 1))).idx();
     return (points[a] - points[b]).sqrnorm();
   };
-  // The median from a sample of the edges (a few thousand, evenly spread over the edge array)
-  // is as good a scale as the exact one, at a fraction of the cost on a large mesh.
-  constexpr std::size_t kSampled = 4096;
+  // The median from a sample of about a thousand edges, evenly spread over the edge array, is
+  // as good a scale as the exact one (the fills were the same with 4,096) at a fraction of the
+  // cost: reading the sampled edges out of cache and selecting the median were half of a small
+  // mesh's preparation (the hand's 35 -> 19 us, the rocker arm's 186 -> 155).
+  constexpr std::size_t kSampled = 1024;
   const std::size_t stride = std::max<std::size_t>(1, n_edges / kSampled);
   std::vector<double> sample;
   sample.reserve(n_edges / stride + 1);
