@@ -2133,9 +2133,6 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
   const auto over_limit = [&](const Hole& hole) {
     return selection.max_boundary > 0 && hole.loop.size() > selection.max_boundary;
   };
-  // Each hole filled searches the faces near its patch at least once.
-  reach.expect_searches(static_cast<std::size_t>(std::count_if(
-      selected.begin(), selected.end(), [&](const Hole* h) { return !over_limit(*h); })));
   // The two borders of a ring-shaped hole, both selected, are filled together when the first
   // of them comes (ring_joining.h); the second's report is kept for its place in the order.
   std::vector<std::optional<std::size_t>> ring_partner(selected.size());

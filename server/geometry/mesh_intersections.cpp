@@ -41,15 +41,6 @@ double longest_sqr_edge(const TrianglePoints& t) {
 
 VertexGrid file_vertices(const Mesh& mesh, double cell, std::size_t below);
 
-//! Full scans of the vertices the searches of one reach may make, where the grid would have
-//! served them, before they file the vertices: filing costs about four scans (measured: 88 us
-//! against 21 on the rocker arm's 10k vertices, 321 against 74 on the bunny's 36k). Filing up
-//! front made every fill call of a large mesh pay for it, and most make a few searches only
-//! (one on rocker-arm_sharp; three on the subdivided sphere, whose large patches scan anyway);
-//! filing after as many scans as it costs never spends more than twice what the better choice
-//! would have.
-constexpr std::size_t kScansBeforeFiling = 4;
-
 //! Whether the grid, once filed, would serve a search of \p box (it covers at most a sixteenth
 //! as many cells as there are vertices; the cells are at least the reach wide, so this count
 //! is an upper bound of the filed grid's).
@@ -88,8 +79,8 @@ void for_each_vertex_near(const Mesh& mesh, const Box3& box, const SearchReach& 
     return true;
   };
   // Every vertex from \p first on, passing over the runs whose boxes miss \p box; returns how
-  // many points it read. Right after a mesh is built its arrays are out of cache, and a full
-  // scan was most of a search: the rocker arm's crease patch reads 37 of 313 runs.
+  // many points and runs' boxes it read. Right after a mesh is built its arrays are out of cache,
+  // and a full scan was most of a search: the rocker arm's crease patch reads 37 of 313 runs.
   const auto scan_from = [&](std::size_t first) {
     constexpr std::size_t kBlock = SearchReach::kVertexBlock;
     const std::size_t blocked =
@@ -99,6 +90,7 @@ void for_each_vertex_near(const Mesh& mesh, const Box3& box, const SearchReach& 
     while (i < blocked) {
       const std::size_t from = i;
       i = std::min((from / kBlock + 1) * kBlock, blocked);
+      ++read;  // the run's box, about a point's test
       if (!reach.block_boxes[from / kBlock].intersects(box)) {
 #ifndef NDEBUG
         // The rule the runs rest on (SearchReach::block_boxes): no vertex moved into the box
@@ -119,7 +111,7 @@ void for_each_vertex_near(const Mesh& mesh, const Box3& box, const SearchReach& 
   };
   VertexGrid& grid = reach.grid;
   const bool count_scan = grid.empty() && reach.grid_below > 0 && grid_would_serve(box, reach);
-  if (count_scan && reach.scanned >= kScansBeforeFiling * reach.grid_below) {
+  if (count_scan && reach.scanned >= SearchReach::kScansBeforeFiling * reach.grid_below) {
     grid = file_vertices(mesh, reach.longest_edge, reach.grid_below);
     if (grid.empty()) reach.scanned = 0;  // nothing to file (all deleted): scan on
   }
@@ -222,11 +214,6 @@ std::size_t VertexGrid::bucket_of(const Eigen::Vector3i& c) const {
                  static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.y())) * 19349663u ^
                  static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.z())) * 83492791u;
   return static_cast<std::size_t>((h ^ (h >> 29)) & (bucket_start.size() - 2));
-}
-
-void SearchReach::expect_searches(std::size_t searches) {
-  if (grid_below > 0 && searches > kScansBeforeFiling)
-    scanned = std::max(scanned, kScansBeforeFiling * grid_below);
 }
 
 void SearchReach::add(const Mesh& mesh, std::span<const FaceHandle> faces) {

@@ -225,12 +225,14 @@ TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
   };
   std::size_t nonempty = 0;
   // First by scans passing over the runs of vertices whose boxes miss (the added vertices are
-  // past the last run, which is not full), then with the grid, filed at the first search it
-  // serves once the reach expects many.
+  // past the last run, which is not full; no grid), then with the grid, filed at the first
+  // search it serves as if the searches had read as much as filing costs.
+  const std::size_t grid_below = reach.grid_below;
   for (int pass = 0; pass < 2; ++pass) {
+    reach.grid_below = pass == 0 ? 0 : grid_below;
     if (pass == 1) {
       EXPECT_TRUE(reach.grid.empty());
-      reach.expect_searches(1000);
+      reach.scanned = SearchReach::kScansBeforeFiling * reach.grid_below;
     }
     for (int i = 0; i < 200; ++i) {
       // Boxes from a point's size to the whole mesh, all over it.
@@ -275,7 +277,7 @@ TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
 TEST(MeshIntersections, TheGridChangesNoSearchsOrder) {
   Mesh mesh = build_mesh(testing::uv_sphere(1, 128, 72)).mesh;
   SearchReach gridded = make_search_reach(mesh);
-  gridded.expect_searches(1000);  // filed at the first search it serves
+  gridded.scanned = SearchReach::kScansBeforeFiling * gridded.grid_below;  // filed at once
   const SearchReach scanning = make_search_reach(mesh, /*with_grid=*/false);
   SearchReach every_vertex = make_search_reach(mesh, /*with_grid=*/false);
   every_vertex.blocks_below = 0;
