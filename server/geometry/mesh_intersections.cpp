@@ -56,10 +56,10 @@ bool grid_would_serve(const Box3& box, const SearchReach& reach) {
 
 //! Calls visit(vertex, point) for every non-deleted vertex that may lie in \p box (at least
 //! those that do), in increasing index order, until it returns false: through the grid's cells
-//! when the reach has a grid and the box covers few of them, else over all vertices. The order
-//! is a scan's either way, so a search finds the same things in the same order with or without
-//! the grid (the fills' first crossing found, and so every fill, do not depend on when or
-//! whether the grid was filed).
+//! when the reach has a grid and the box covers few of them, else over the runs of vertices
+//! whose boxes meet it. The order is a scan's either way, so a search finds the same things in
+//! the same order with or without the grid or the runs (the fills' first crossing found, and so
+//! every fill, do not depend on when or whether the grid was filed).
 template <typename Visit>
 void for_each_vertex_near(const Mesh& mesh, const Box3& box, const SearchReach& reach,
                           Visit&& visit) {
