@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <array>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <optional>
@@ -81,23 +82,40 @@ std::string annulus_off(int inner) {
 // that shows the hole before filling it); otherwise one FillHoles call selects the hole nearest
 // the point on the server (the haptic station's button press: it highlights holes from its own
 // replica, so the press is the only round trip).
-void round_trip(const ServerProcess& server, int iterations, bool select_first) {
+//! The mesh a round trip fills a hole of, and the point the hole is picked near.
+struct RoundTripMesh {
+  std::string bytes;
+  v1::MeshFormat format = v1::OFF;
+  std::string name;
+  std::array<double, 3> near{};
+  std::size_t faces = 0;
+};
+
+//! The default: a flat annulus of 3,600 faces round a 300-vertex hole, picked on its rim.
+RoundTripMesh annulus_round_trip() {
+  const geometry::MeshSoup soup = annulus(300, 10.0, 6, 0.4);
+  return {to_off(soup), v1::OFF, "annulus300.off", {10.0, 0.0, 0.0}, soup.triangles.size()};
+}
+
+void round_trip(const ServerProcess& server, int iterations, bool select_first,
+                const RoundTripMesh& mesh) {
   auto channel_a = server.connect();
   auto channel_b = server.connect();
   net::RepairClient a(channel_a), b(channel_b);
   v1::SessionInfo info;
   a.create_session("bench", info);
   v1::LoadMeshResponse loaded;
-  if (auto s =
-          a.upload_mesh(info.session_id(), annulus_off(300), v1::OFF, "annulus300.off", loaded);
+  if (auto s = a.upload_mesh(info.session_id(), mesh.bytes, mesh.format, mesh.name, loaded);
       !s.is_ok()) {
     std::cerr << "upload failed: " << s.to_string() << "\n";
     return;
   }
   auto stream = b.subscribe(info.session_id(), loaded.session().version());
   v1::Point3 near;
-  near.set_x(10.0);  // on the hole's rim
-  std::vector<double> total, fill_only;
+  near.set_x(mesh.near[0]);
+  near.set_y(mesh.near[1]);
+  near.set_z(mesh.near[2]);
+  std::vector<double> total, fill_only, undo;
   std::uint32_t boundary = 0;
   for (int i = 0; i < iterations + 5; ++i) {
     const auto start = Clock::now();
@@ -130,17 +148,23 @@ void round_trip(const ServerProcess& server, int iterations, bool select_first) 
       fill_only.push_back(std::chrono::duration<double, std::milli>(fill_end - fill_start).count());
     }
     v1::EditResponse undone;
+    const auto undo_start = Clock::now();
     a.undo(info.session_id(), undone);
     while (stream->read(event, 10s)) {
       if (event.has_delta() && event.delta().version() == undone.version()) break;
     }
+    if (i >= 5)
+      undo.push_back(std::chrono::duration<double, std::milli>(Clock::now() - undo_start).count());
   }
   std::cout << fmt::format(
-      "round trip, {}-vertex hole, {}:\n  select -> fill -> delta at a 2nd client: {}\n", boundary,
+      "round trip, {}-vertex hole in {} ({} faces), {}:\n  select -> fill -> delta at a 2nd "
+      "client: {}\n",
+      boundary, mesh.name, mesh.faces,
       select_first ? "FindNearestHole then FillHoles{ids}" : "one FillHoles{near point} call",
       percentiles(total));
   std::cout << fmt::format("  of which the FillHoles call:              {}\n",
                            percentiles(fill_only));
+  std::cout << fmt::format("  undo -> delta at the 2nd client:          {}\n", percentiles(undo));
 }
 
 void push_down(const ServerProcess& server, int iterations) {
@@ -336,7 +360,45 @@ int main(int argc, char** argv) {
   app.add_option("--sweep-clients", sweep_clients, "Client counts for the sweep runs")
       ->capture_default_str();
   app.add_flag("--skip-sweep", skip_sweep, "Only the round trip and the batch");
+  std::string mesh_path;
+  std::vector<double> near;
+  app.add_option("--mesh", mesh_path,
+                 "Measure only the round trips, on this mesh (OFF, OBJ, PLY or STL) instead of "
+                 "the 3,600-face annulus: the hole filled is the one nearest --near");
+  app.add_option("--near", near, "With --mesh: the point the hole is picked near (X Y Z)")
+      ->expected(3);
   CLI11_PARSE(app, argc, argv);
+  RoundTripMesh trip = annulus_round_trip();
+  if (!mesh_path.empty()) {
+    if (near.size() != 3) {
+      std::cerr << "--mesh needs --near X Y Z\n";
+      return 2;
+    }
+    const geometry::ReadResult read = geometry::read_mesh_file(mesh_path);
+    if (!read.ok) {
+      std::cerr << mesh_path << ": " << read.error << "\n";
+      return 1;
+    }
+    std::ifstream in(mesh_path, std::ios::binary);
+    trip.bytes.assign(std::istreambuf_iterator<char>(in), {});
+    switch (read.report.format) {
+      case geometry::MeshFormat::Obj:
+        trip.format = v1::OBJ;
+        break;
+      case geometry::MeshFormat::Ply:
+        trip.format = v1::PLY;
+        break;
+      case geometry::MeshFormat::Stl:
+        trip.format = v1::STL;
+        break;
+      default:
+        trip.format = v1::OFF;
+        break;
+    }
+    trip.name = std::filesystem::path(mesh_path).filename().string();
+    trip.near = {near[0], near[1], near[2]};
+    trip.faces = read.soup.triangles.size();
+  }
 
   TempDir dir;
   ServerProcess server(dir.path());
@@ -346,8 +408,9 @@ int main(int argc, char** argv) {
   }
   std::cout << fmt::format("machine: {} cores; server {}\n", std::thread::hardware_concurrency(),
                            TOUCHMEND_SERVER_PATH);
-  round_trip(server, iterations, false);
-  round_trip(server, iterations, true);
+  round_trip(server, iterations, false, trip);
+  round_trip(server, iterations, true, trip);
+  if (!mesh_path.empty()) return 0;
   push_down(server, std::max(iterations, 500));
   if (!skip_sweep) {
     for (int n : sweep_clients) sweep(server, server.pid(), n, sweep_seconds);
