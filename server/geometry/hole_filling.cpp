@@ -2080,7 +2080,8 @@ std::size_t FillReport::fragments_removed() const {
 }
 
 FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOptions& options,
-                      const FillProgress& progress, HoleSearchResult* known_holes) {
+                      const FillProgress& progress, HoleSearchResult* known_holes,
+                      std::optional<SearchReach>* known_reach) {
   FillReport report;
   // The O(n^2) projectability test runs only for the holes selected (below), not for every
   // boundary of the mesh: an interactive fill of one hole should not pay for the others.
@@ -2113,7 +2114,11 @@ FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOpti
   // searches for the faces near each hole (one pass over the faces). Not part of any hole's
   // time; the report gives it as prepare_seconds.
   const auto prepare_start = Clock::now();
-  SearchReach reach = selected.empty() ? SearchReach{} : make_search_reach(mesh);
+  std::optional<SearchReach> made;
+  if (known_reach == nullptr) known_reach = &made;
+  if (!*known_reach && !selected.empty()) *known_reach = make_search_reach(mesh);
+  SearchReach empty_reach;
+  SearchReach& reach = *known_reach ? **known_reach : empty_reach;
   // Headroom for the new elements. OpenMesh's meshes have no move operations, so a mesh that
   // was copied (out of build_mesh's result, into a session) has arrays exactly full, and the
   // first new face would reallocate every property array of the mesh inside a hole's fill

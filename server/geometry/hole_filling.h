@@ -221,7 +221,12 @@ using FillProgress = std::function<bool(std::size_t done, std::size_t total)>;
 //! Finds the holes and fills the selected ones in id order. A caller that already searched
 //! the current mesh (an interactive session between edits) passes \p known_holes to skip the
 //! search; properties computed for the selected holes are stored back into it.
+//! A caller that keeps the mesh's search reach across calls passes \p known_reach: made here
+//! when empty, then used and extended with the faces the call adds, instead of a pass over the
+//! whole mesh per call. Between calls the caller keeps it true: SearchReach::add for faces it
+//! adds, SearchReach::note_moved for vertices it moves; reset when the mesh is compacted.
 FillReport fill_holes(Mesh& mesh, const FillSelection& selection, const FillOptions& options = {},
-                      const FillProgress& progress = {}, HoleSearchResult* known_holes = nullptr);
+                      const FillProgress& progress = {}, HoleSearchResult* known_holes = nullptr,
+                      std::optional<SearchReach>* known_reach = nullptr);
 
 }  // namespace touchmend::geometry

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "server/geometry/local_map.h"
 #include "server/geometry/projection.h"
 
 namespace touchmend::geometry {
@@ -225,45 +226,44 @@ bool trace_hole_loop(const Mesh& mesh, HalfedgeHandle start, std::size_t max_edg
   return h == start;
 }
 
-HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) {
-  HoleSearchResult result;
-  std::vector<std::uint8_t> visited(mesh.n_halfedges(), 0);
-  for (const HalfedgeHandle start : mesh.halfedges()) {
-    if (visited[start.idx()] || !mesh.is_boundary(start)) continue;
-    Hole hole;
-    HalfedgeHandle h = start;
-    bool corrupt = false;
-    do {
-      visited[h.idx()] = 1;
-      hole.loop.push_back(mesh.from_vertex_handle(h));
-      hole.halfedges.push_back(h);
-      h = next_hole_halfedge(mesh, h);
-      if (!h.is_valid() || (visited[h.idx()] && h != start) ||
-          hole.loop.size() > mesh.n_halfedges()) {
-        corrupt = true;
-        break;
-      }
-    } while (h != start);
-    if (corrupt) {
-      ++result.corrupt_fans;
-      continue;
-    }
-    if (hole.loop.size() < 3) hole.unfillable_reason = "boundary loop with fewer than 3 edges";
-    {
-      // A loop through the same vertex twice (the outside of a bowtie, a hole pinched at a
-      // vertex) is not a disk: the fill closes the pinch first (fill_hole).
-      std::vector<int> ids;
-      for (const VertexHandle v : hole.loop) ids.push_back(v.idx());
-      std::sort(ids.begin(), ids.end());
-      for (auto dup = std::adjacent_find(ids.begin(), ids.end()); dup != ids.end();
-           dup = std::adjacent_find(dup, ids.end())) {
-        hole.pinched_at.push_back(VertexHandle(*dup));
-        dup = std::upper_bound(dup, ids.end(), *dup);
-      }
-    }
-    result.holes.push_back(std::move(hole));
+namespace {
+
+//! The loop through boundary halfedge \p start (next_hole_halfedge at each vertex), its
+//! halfedges marked with \p mark; nullopt when a fan is corrupt (the walk does not close, or
+//! runs into a halfedge \p walked says another loop took).
+template <typename Walked, typename Mark>
+std::optional<Hole> walk_loop(const Mesh& mesh, HalfedgeHandle start, Walked&& walked,
+                              Mark&& mark) {
+  Hole hole;
+  HalfedgeHandle h = start;
+  do {
+    mark(h);
+    hole.loop.push_back(mesh.from_vertex_handle(h));
+    hole.halfedges.push_back(h);
+    h = next_hole_halfedge(mesh, h);
+    if (!h.is_valid() || (walked(h) && h != start) || hole.loop.size() > mesh.n_halfedges())
+      return std::nullopt;
+  } while (h != start);
+  if (hole.loop.size() < 3) hole.unfillable_reason = "boundary loop with fewer than 3 edges";
+  // A loop through the same vertex twice (the outside of a bowtie, a hole pinched at a
+  // vertex) is not a disk: the fill closes the pinch first (fill_hole).
+  std::vector<int> ids;
+  for (const VertexHandle v : hole.loop) ids.push_back(v.idx());
+  std::sort(ids.begin(), ids.end());
+  for (auto dup = std::adjacent_find(ids.begin(), ids.end()); dup != ids.end();
+       dup = std::adjacent_find(dup, ids.end())) {
+    hole.pinched_at.push_back(VertexHandle(*dup));
+    dup = std::upper_bound(dup, ids.end(), *dup);
   }
-  // Deterministic order by the smallest hole halfedge (u, v), then stable ids.
+  return hole;
+}
+
+//! Orders \p holes deterministically (by their smallest halfedge (u, v)) and gives them their
+//! stable ids in that order; computes the properties of those whose \p fresh flag is set and
+//! only the fragment count of the others (which an edit away from the loop can change: the
+//! filling of a second loop of the same small piece).
+void finish_search(const Mesh& mesh, std::vector<Hole>& holes, const std::vector<char>& fresh,
+                   const HoleSearchOptions& options) {
   auto key = [&](const Hole& hole) {
     std::pair<int, int> best{std::numeric_limits<int>::max(), std::numeric_limits<int>::max()};
     for (std::size_t i = 0; i < hole.loop.size(); ++i)
@@ -271,14 +271,14 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
     return best;
   };
   std::vector<std::pair<std::pair<int, int>, std::size_t>> order;
-  for (std::size_t i = 0; i < result.holes.size(); ++i) order.push_back({key(result.holes[i]), i});
+  for (std::size_t i = 0; i < holes.size(); ++i) order.push_back({key(holes[i]), i});
   std::sort(order.begin(), order.end());
   std::vector<Hole> sorted;
-  sorted.reserve(result.holes.size());
+  sorted.reserve(holes.size());
   std::set<std::uint32_t> used_ids;
   std::uint32_t overflow_id = static_cast<std::uint32_t>(mesh.n_vertices());
   for (const auto& [k, i] : order) {
-    Hole& hole = result.holes[i];
+    Hole& hole = holes[i];
     std::vector<std::uint32_t> ids;
     for (const VertexHandle v : hole.loop) ids.push_back(static_cast<std::uint32_t>(v.idx()));
     std::sort(ids.begin(), ids.end());
@@ -290,12 +290,81 @@ HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) 
       }
     if (hole.id == overflow_id) ++overflow_id;
     used_ids.insert(hole.id);
-    compute_hole_properties(mesh, hole, options.compute_projectability);
-    if (hole.unfillable_reason.empty()) hole.unfillable_reason = out_of_range_reason(mesh, hole);
+    if (fresh[i]) {
+      compute_hole_properties(mesh, hole, options.compute_projectability);
+      if (hole.unfillable_reason.empty()) hole.unfillable_reason = out_of_range_reason(mesh, hole);
+    } else {
+      hole.fragment_faces = count_fragment_faces(mesh, hole);
+    }
     sorted.push_back(std::move(hole));
   }
-  result.holes = std::move(sorted);
+  holes = std::move(sorted);
+}
+
+}  // namespace
+
+HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options) {
+  HoleSearchResult result;
+  std::vector<std::uint8_t> visited(mesh.n_halfedges(), 0);
+  for (const HalfedgeHandle start : mesh.halfedges()) {
+    if (visited[start.idx()] || !mesh.is_boundary(start)) continue;
+    std::optional<Hole> hole = walk_loop(
+        mesh, start, [&](HalfedgeHandle h) { return visited[h.idx()] != 0; },
+        [&](HalfedgeHandle h) { visited[h.idx()] = 1; });
+    if (hole)
+      result.holes.push_back(std::move(*hole));
+    else
+      ++result.corrupt_fans;
+  }
+  finish_search(mesh, result.holes, std::vector<char>(result.holes.size(), 1), options);
   return result;
+}
+
+bool update_holes(const Mesh& mesh, HoleSearchResult& result, std::span<const VertexHandle> touched,
+                  const HoleSearchOptions& options) {
+  if (result.corrupt_fans > 0) return false;  // which loops the corrupt walks hid is unknown
+  LocalSet touched_set(2 * touched.size() + 16);
+  for (const VertexHandle v : touched)
+    if (v.is_valid() && static_cast<std::size_t>(v.idx()) < mesh.n_vertices())
+      touched_set.insert(v.idx());
+  // Every loop the edit made or changed has a boundary halfedge an added or deleted face
+  // bordered, or a corner whose fans it changed: it leaves a touched vertex. A kept loop passes
+  // no touched vertex, so none of these walks enters one.
+  std::vector<Hole> traced;
+  LocalSet walked(64);
+  for (const VertexHandle v : touched) {
+    if (!v.is_valid() || static_cast<std::size_t>(v.idx()) >= mesh.n_vertices() ||
+        mesh.status(v).deleted())
+      continue;
+    for (const HalfedgeHandle start : mesh.voh_range(v)) {
+      if (!mesh.is_boundary(start) || walked.contains(start.idx())) continue;
+      std::optional<Hole> hole = walk_loop(
+          mesh, start, [&](HalfedgeHandle h) { return walked.contains(h.idx()); },
+          [&](HalfedgeHandle h) { walked.insert(h.idx()); });
+      if (!hole) return false;
+      // Started where find_holes starts it, at its halfedge of lowest index (the first its scan
+      // meets): a fill depends on where its loop starts.
+      const auto first =
+          std::min_element(hole->halfedges.begin(), hole->halfedges.end(),
+                           [](HalfedgeHandle a, HalfedgeHandle b) { return a.idx() < b.idx(); });
+      const auto shift = first - hole->halfedges.begin();
+      std::rotate(hole->halfedges.begin(), first, hole->halfedges.end());
+      std::rotate(hole->loop.begin(), hole->loop.begin() + shift, hole->loop.end());
+      traced.push_back(std::move(*hole));
+    }
+  }
+  std::vector<Hole> holes;
+  holes.reserve(result.holes.size() + traced.size());
+  for (Hole& hole : result.holes)
+    if (std::none_of(hole.loop.begin(), hole.loop.end(),
+                     [&](VertexHandle v) { return touched_set.contains(v.idx()); }))
+      holes.push_back(std::move(hole));
+  std::vector<char> fresh(holes.size(), 0);
+  for (Hole& hole : traced) holes.push_back(std::move(hole));
+  fresh.resize(holes.size(), 1);
+  finish_search(mesh, holes, fresh, options);
+  result.holes = std::move(holes);
+  return true;
 }
 
 std::optional<std::size_t> find_hole_by_id(const std::vector<Hole>& holes, std::uint32_t id) {

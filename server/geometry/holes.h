@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -63,6 +64,18 @@ struct HoleSearchOptions {
 //! thesis leaves out) is resolved from the fans around it, never from the kernel's arbitrary
 //! boundary links: see next_hole_halfedge.
 HoleSearchResult find_holes(const Mesh& mesh, const HoleSearchOptions& options = {});
+
+//! The holes after an edit, without a search of the whole mesh: \p result holds the holes
+//! before it (find_holes or this), \p touched every vertex that is a corner of a face the edit
+//! added or deleted, that it moved, or that neighbours a moved one (whose faces' normals
+//! changed). A loop through none of them is kept with its properties (its fragment count made
+//! again); the loops through them are traced again. The result is find_holes' (the same loops,
+//! order and ids; the kept holes' projectability as it was computed). False when a fan is
+//! corrupt, or was at the search \p result came from: \p result is then unchanged and only a
+//! search of the whole mesh answers. The interactive session's path: a fill request on a mesh
+//! of a million faces spent 9-11 ms in the search alone.
+bool update_holes(const Mesh& mesh, HoleSearchResult& result, std::span<const VertexHandle> touched,
+                  const HoleSearchOptions& options = {});
 
 //! The outgoing boundary halfedge that follows the boundary halfedge \p incoming along its
 //! hole: at a manifold vertex the far end of the one fan; where holes touch, the end of

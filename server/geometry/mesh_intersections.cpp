@@ -229,6 +229,32 @@ void SearchReach::add(const Mesh& mesh, std::span<const FaceHandle> faces) {
   }
 }
 
+void SearchReach::note_moved(const Mesh& mesh, VertexHandle v) {
+  if (!v.is_valid()) return;
+  const auto i = static_cast<std::size_t>(v.idx());
+  if (i < blocks_below && i / kVertexBlock < block_boxes.size()) {
+    const Vec3& p = mesh.point(v);
+    block_boxes[i / kVertexBlock].extend(Eigen::Vector3d(p[0], p[1], p[2]));
+  }
+  if (i < grid_below && !grid.empty()) {
+    grid = VertexGrid{};
+    scanned = 0;
+  }
+  // A face the move stretched past the reach is found through its corners no more: listed (once;
+  // a face long before the move is already on the list).
+  const double reach_sqr = longest_edge * longest_edge;
+  for (const FaceHandle f : mesh.vf_range(v)) {
+    TrianglePoints t;
+    std::array<int, 3> ids;
+    face_corners(mesh, f, t, ids);
+    if (longest_sqr_edge(t) > reach_sqr &&
+        std::find(long_faces.begin(), long_faces.end(), f) == long_faces.end()) {
+      long_faces.push_back(f);
+      long_boxes.push_back(triangle_box(t));
+    }
+  }
+}
+
 namespace {
 
 //! The grid of \p mesh's vertices below index \p below with cells of (about) \p cell: one

@@ -86,6 +86,11 @@ struct SearchReach {
   static constexpr std::size_t kScansBeforeFiling = 4;
   //! Files \p faces, added to the mesh: on long_faces those with an edge over longest_edge.
   void add(const Mesh& mesh, std::span<const FaceHandle> faces);
+  //! Keeps the reach true after vertex \p v moved (or an isolated one was placed anew) outside a
+  //! fill, for a reach kept across edits (an interactive session's): its run's box grows to
+  //! take its new position, a filed grid is dropped (the searches file it again), and its faces
+  //! the move made long are listed.
+  void note_moved(const Mesh& mesh, VertexHandle v);
 };
 
 //! The reach for \p mesh: longest_edge is a few times the median edge (capped by the longest

@@ -2,10 +2,12 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <set>
 
 #include <gtest/gtest.h>
 
+#include "server/geometry/hole_filling.h"
 #include "server/geometry/mesh_build.h"
 #include "tests/support/mesh_factory.h"
 
@@ -123,6 +125,115 @@ TEST(FindHoles, NearestHoleAndLookupById) {
   EXPECT_NEAR(near->distance, std::sqrt(0.8 * 0.8 + 0.25), 1e-12);
   EXPECT_TRUE(find_hole_by_id(holes, holes[near->index].id));
   EXPECT_FALSE(find_hole_by_id(holes, 999999));
+}
+
+//! Two searches of one mesh agree hole by hole: loops in the same order with the same ids,
+//! pinches, fragment counts, reasons and properties.
+void expect_same_holes(const HoleSearchResult& updated, const HoleSearchResult& searched,
+                       int step) {
+  ASSERT_EQ(updated.holes.size(), searched.holes.size()) << "step " << step;
+  for (std::size_t i = 0; i < searched.holes.size(); ++i) {
+    const Hole& a = updated.holes[i];
+    const Hole& b = searched.holes[i];
+    SCOPED_TRACE(::testing::Message() << "step " << step << ", hole " << b.id);
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_EQ(a.loop, b.loop);
+    EXPECT_EQ(a.halfedges, b.halfedges);
+    EXPECT_EQ(a.pinched_at, b.pinched_at);
+    EXPECT_EQ(a.fragment_faces, b.fragment_faces);
+    EXPECT_EQ(a.unfillable_reason, b.unfillable_reason);
+    EXPECT_EQ(a.perimeter, b.perimeter);
+    EXPECT_EQ(a.area, b.area);
+    EXPECT_EQ(a.normal, b.normal);
+    EXPECT_EQ(a.centroid, b.centroid);
+    EXPECT_EQ(a.planarity, b.planarity);
+    EXPECT_EQ(a.is_simple, b.is_simple);
+    EXPECT_EQ(a.reference_normal, b.reference_normal);
+  }
+}
+
+// A grid with a hole, two holes touching at a vertex and a lone triangle beside it, edited at
+// random: faces deleted (new holes, holes merged, pinched or touching), holes filled, vertices
+// moved. After every edit the update from the vertices it touched gives what a search of the
+// whole mesh gives. Fails when the update keeps a loop an edit changed (a moved vertex's
+// neighbours left out: a kept hole's normal is stale) or misses a new one.
+TEST(UpdateHoles, GivesWhatASearchGivesAfterEveryEdit) {
+  MeshSoup soup = remove_faces(grid(14, 14), [](const Vec3& c) {
+    return (c[0] > 3 && c[0] < 5 && c[1] > 3 && c[1] < 5) ||
+           (c[0] > 8 && c[0] < 9 && c[1] > 8 && c[1] < 9) ||
+           (c[0] > 9 && c[0] < 10 && c[1] > 9 && c[1] < 10);
+  });
+  soup = testing::with_lone_triangle(soup, {30, 0, 0});
+  Mesh mesh = build_mesh(soup).mesh;
+  HoleSearchResult holes = find_holes(mesh);
+  std::mt19937 random(20261128);
+  const auto pick = [&](std::size_t n) {
+    return std::uniform_int_distribution<std::size_t>(0, n - 1)(random);
+  };
+  std::size_t deleted = 0, filled = 0, moved = 0;
+  for (int step = 0; step < 240; ++step) {
+    std::vector<VertexHandle> touched;
+    const int kind = step % 3;
+    if (kind == 0) {
+      std::vector<FaceHandle> alive;
+      for (const FaceHandle f : mesh.faces()) alive.push_back(f);
+      if (alive.empty()) break;
+      const FaceHandle f = alive[pick(alive.size())];
+      for (const VertexHandle v : mesh.fv_range(f)) touched.push_back(v);
+      mesh.delete_face(f, false);
+      ++deleted;
+    } else if (kind == 1) {
+      std::vector<std::uint32_t> small;
+      for (const Hole& h : holes.holes)
+        if (h.loop.size() <= 24) small.push_back(h.id);
+      if (small.empty()) continue;
+      FillSelection selection;
+      selection.mode = FillSelection::Mode::Ids;
+      selection.ids = {small[pick(small.size())]};
+      const FillReport report = fill_holes(mesh, selection, FillOptions{}, {}, &holes);
+      for (const HoleFillReport& r : report.holes) {
+        const auto i = find_hole_by_id(holes.holes, r.hole_id);
+        ASSERT_TRUE(i);
+        for (const VertexHandle v : holes.holes[*i].loop) touched.push_back(v);
+        for (const FaceHandle f : r.new_faces)
+          for (const VertexHandle v : mesh.fv_range(f)) touched.push_back(v);
+        filled += r.filled ? 1 : 0;
+      }
+    } else {
+      std::vector<VertexHandle> alive;
+      for (const VertexHandle v : mesh.vertices())
+        if (!mesh.is_isolated(v)) alive.push_back(v);
+      const VertexHandle v = alive[pick(alive.size())];
+      mesh.set_point(
+          v, mesh.point(v) + Vec3(0, 0, std::uniform_real_distribution<>(-0.3, 0.3)(random)));
+      touched.push_back(v);
+      for (const VertexHandle w : mesh.vv_range(v)) touched.push_back(w);
+      ++moved;
+    }
+    HoleSearchResult updated = holes;
+    ASSERT_TRUE(update_holes(mesh, updated, touched)) << "step " << step;
+    const HoleSearchResult searched = find_holes(mesh);
+    ASSERT_EQ(searched.corrupt_fans, 0u);
+    expect_same_holes(updated, searched, step);
+    if (::testing::Test::HasFailure()) return;
+    holes = updated;
+  }
+  // The edits did what they are there for.
+  EXPECT_EQ(deleted, 80u);
+  EXPECT_GT(filled, 20u);
+  EXPECT_EQ(moved, 80u);
+}
+
+// The update says when it cannot answer: after a search that met a corrupt fan it leaves the
+// result as it was.
+TEST(UpdateHoles, RefusesAfterACorruptSearch) {
+  const Mesh mesh = grid_with_square_hole();
+  HoleSearchResult holes = find_holes(mesh);
+  holes.corrupt_fans = 1;
+  const HoleSearchResult before = holes;
+  const std::vector<VertexHandle> touched{VertexHandle(0)};
+  EXPECT_FALSE(update_holes(mesh, holes, touched));
+  EXPECT_EQ(holes.holes.size(), before.holes.size());
 }
 
 }  // namespace

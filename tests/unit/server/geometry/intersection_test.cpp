@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -182,6 +183,66 @@ TEST(MeshIntersections, GroupsSkipOnlyTheirOwnPairs) {
 // finds: on a mesh large enough to get a grid (filed by the searches once they have scanned the
 // mesh a few times), with long faces beside fine ones, and after new vertices and faces were
 // added (as a fill adds them).
+// A reach kept across edits, as a session keeps it: vertices moved (some far, stretching their
+// faces past the reach) and noted, after the grid was filed. Its searches still find every face
+// a scan finds. Without note_moved they miss the moved vertices' faces (the Debug build's check
+// of the skipped runs stops there first).
+TEST(MeshIntersections, SearchReachKeptThroughMovesFindsWhatAScanFinds) {
+  Mesh mesh = build_mesh(testing::uv_sphere(1, 128, 72)).mesh;
+  SearchReach reach = make_search_reach(mesh);
+  ASSERT_GT(reach.grid_below, 0u);
+  const auto scan = [&](const Box3& box) {
+    std::vector<int> out;
+    for (const FaceHandle f : mesh.faces()) {
+      TrianglePoints t;
+      std::array<int, 3> ids;
+      face_corners(mesh, f, t, ids);
+      if (triangle_box(t).intersects(box)) out.push_back(f.idx());
+    }
+    return out;
+  };
+  const auto searched = [&](const Box3& box) {
+    std::vector<int> out;
+    for (const FaceHandle f : faces_in_box(mesh, box, reach)) out.push_back(f.idx());
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  const auto box_at = [](const Vec3& c, double size) {
+    return Box3(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
+                Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
+  };
+  std::mt19937 random(5);
+  std::uniform_real_distribution<> unit(-1, 1);
+  const std::size_t listed = reach.long_faces.size();
+  for (int round = 0; round < 6; ++round) {
+    // File the grid (as if the searches had read as much as filing costs), then move.
+    reach.scanned = SearchReach::kScansBeforeFiling * reach.grid_below;
+    searched(box_at(Vec3(0, 0, 1), 0.01));
+    EXPECT_FALSE(reach.grid.empty());
+    std::vector<Vec3> moved_to;
+    for (int k = 0; k < 8; ++k) {
+      const VertexHandle v(static_cast<int>(
+          std::uniform_int_distribution<std::size_t>(0, mesh.n_vertices() - 1)(random)));
+      const double far = k % 2 == 0 ? 0.02 : 0.6;  // within a run's reach, or far out
+      mesh.set_point(v, mesh.point(v) + far * Vec3(unit(random), unit(random), unit(random)));
+      reach.note_moved(mesh, v);
+      moved_to.push_back(mesh.point(v));
+    }
+    EXPECT_TRUE(reach.grid.empty());
+    for (const Vec3& p : moved_to)
+      for (const double size : {0.001, 0.05, 0.3}) {
+        const Box3 box = box_at(p, size);
+        ASSERT_EQ(searched(box), scan(box)) << "round " << round;
+      }
+    for (int i = 0; i < 40; ++i) {
+      const Vec3 c(unit(random) * 1.3, unit(random) * 1.3, unit(random) * 1.3);
+      const Box3 box = box_at(c, 0.01 * (1 + i));
+      ASSERT_EQ(searched(box), scan(box)) << "round " << round << ", box " << i;
+    }
+  }
+  EXPECT_GT(reach.long_faces.size(), listed);  // the far moves made long faces
+}
+
 TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
   MeshSoup soup = testing::uv_sphere(1, 128, 72);  // fine: > 8,192 vertices
   const auto offset = static_cast<std::uint32_t>(soup.points.size());
