@@ -102,12 +102,17 @@ Status apply_delta(MeshDocument& document, const v1::MeshDelta& delta) {
     }
     if (append) ++appended_f;
   }
-  // A removed vertex may not keep alive faces (those of the document not removed here).
+  // A removed vertex may not keep alive faces (those of the document not removed here). One
+  // pass over the faces against a flat mark per vertex: looking every corner up in the hash sets
+  // made the undo of a fill on a 1.37M-face mesh take 40 ms.
   if (!removed_v.empty()) {
+    std::vector<std::uint8_t> dying(nv, 0);
+    for (const std::uint32_t v : removed_v)
+      if (!revived_v.count(v)) dying[v] = 1;
     for (std::size_t f = 0; f < nf; ++f) {
-      if (!document.face_alive[f] || removed_f.count(static_cast<std::uint32_t>(f))) continue;
+      if (!document.face_alive[f]) continue;
       for (std::uint32_t c : document.faces[f]) {
-        if (removed_v.count(c) && !revived_v.count(c)) {
+        if (dying[c] && !removed_f.count(static_cast<std::uint32_t>(f))) {
           return invalid("delta removes vertex " + std::to_string(c) + " still used by face " +
                          std::to_string(f));
         }

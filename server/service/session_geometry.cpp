@@ -214,7 +214,7 @@ void SessionGeometry::sync(const rpc::MeshDocument& document) {
   }
   version_ = document.version;
   valid_ = true;
-  holes_.reset();
+  forget_search();
   faces_at_rebuild_ = mesh_.n_faces();
   vertices_at_rebuild_ = mesh_.n_vertices();
 }
@@ -249,7 +249,7 @@ void SessionGeometry::bound_growth() {
   for (FaceHandle& h : faces) face_pointers.push_back(&h);
   std::vector<geometry::Mesh::HalfedgeHandle*> no_halfedges;
   mesh_.garbage_collection(vertex_pointers, no_halfedges, face_pointers, true, true, true);
-  holes_.reset();  // halfedge handles moved
+  forget_search();  // handles moved
   doc_of_mesh_vertex_.assign(mesh_.n_vertices(), kNoId);
   for (std::size_t i = 0; i < vertices.size(); ++i) {
     if (!vertices[i].is_valid()) return invalidate();  // a tracked vertex was deleted: rebuild
@@ -266,8 +266,37 @@ void SessionGeometry::bound_growth() {
   vertices_at_rebuild_ = mesh_.n_vertices();
 }
 
+void SessionGeometry::bound_touched() {
+  // Edits that no search follows (undo and redo in a row) would let the list grow without end;
+  // past an eighth of the vertices a search of the whole mesh costs about as much as the update.
+  if (touched_.size() > 4096 + mesh_.n_vertices() / 8) {
+    holes_.reset();
+    touched_.clear();
+  }
+  // Vertices added since the reach was made are scanned one by one by every search (past its
+  // runs): once they are many, a new reach boxes them.
+  if (reach_ && mesh_.n_vertices() > reach_->blocks_below + reach_->blocks_below / 8 + 65536)
+    reach_.reset();
+}
+
+void SessionGeometry::forget_search() {
+  holes_.reset();
+  touched_.clear();
+  reach_.reset();
+}
+
+void SessionGeometry::note_moved(VertexHandle v) {
+  touched_.push_back(v);
+  for (const VertexHandle w : mesh_.vv_range(v)) touched_.push_back(w);
+  if (reach_) reach_->note_moved(mesh_, v);
+}
+
 geometry::HoleSearchResult& SessionGeometry::search() {
-  if (!holes_) holes_ = geometry::find_holes(mesh_, {.compute_projectability = false});
+  constexpr geometry::HoleSearchOptions kOptions{.compute_projectability = false};
+  if (holes_ && !touched_.empty() && !geometry::update_holes(mesh_, *holes_, touched_, kOptions))
+    holes_.reset();
+  touched_.clear();
+  if (!holes_) holes_ = geometry::find_holes(mesh_, kOptions);
   return *holes_;
 }
 
@@ -397,8 +426,21 @@ SessionGeometry::FillOutcome SessionGeometry::fill(const rpc::MeshDocument& docu
     return it != doc_ids_of_holes.end() ? it->second : doc_vertex(geometry_id);
   };
   const geometry::FillReport report =
-      geometry::fill_holes(mesh_, sel, to_fill_options(options), progress, &search());
-  holes_.reset();  // the mesh changed (or attempts left deleted elements): search again next time
+      geometry::fill_holes(mesh_, sel, to_fill_options(options), progress, &search(), &reach_);
+  // The next search updates the holes from the vertices this fill touched (update_holes): the
+  // loops of the holes it worked on (filled, left open after attempts, or a fragment deleted)
+  // and the corners of its new faces. Nothing else of the mesh changes in a fill.
+  for (const auto& h : report.holes) {
+    if (const auto i = geometry::find_hole_by_id(holes_->holes, h.hole_id))
+      touched_.insert(touched_.end(), holes_->holes[*i].loop.begin(), holes_->holes[*i].loop.end());
+    else
+      holes_.reset();  // cannot happen (the fill reports the holes it was given): search again
+    if (!holes_) break;
+    for (const FaceHandle f : h.new_faces)
+      if (!mesh_.status(f).deleted())
+        for (const VertexHandle v : mesh_.fv_range(f)) touched_.push_back(v);
+  }
+  bound_touched();
   if (sel.mode == geometry::FillSelection::Mode::Nearest && report.holes.empty()) {
     outcome.status = {StatusCode::FailedPrecondition, "the mesh has no holes"};
     return outcome;
@@ -520,7 +562,7 @@ SessionGeometry::FillOutcome SessionGeometry::stitch(const rpc::MeshDocument& do
     outcome.status = {StatusCode::FailedPrecondition, "stitch refused: " + r.reason};
     return outcome;
   }
-  holes_.reset();
+  forget_search();
   outcome.delta = edit_delta(document, {}, {r.face}, first_free);
   return outcome;
 }
@@ -616,7 +658,7 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
   const geometry::SharpenResult r =
       one_curve ? geometry::sharpen_hole(mesh_, *hole, picked.curves[0], options)
                 : geometry::sharpen_creases(mesh_, *hole, picked, options);
-  holes_.reset();
+  forget_search();
   if (!r.ok) {
     outcome.status = {StatusCode::FailedPrecondition, "sharpen refused: " + r.failure};
     return outcome;
@@ -717,7 +759,7 @@ SessionGeometry::FillOutcome SessionGeometry::bridge(const rpc::MeshDocument& do
         return outcome;
       }
     const geometry::GapBridgeResult r = geometry::bridge_gap(mesh_, first, second, fill);
-    holes_.reset();
+    forget_search();
     if (r.stitches.empty()) {
       outcome.status = {StatusCode::FailedPrecondition, "bridge refused: " + r.reason};
       return outcome;
@@ -765,7 +807,7 @@ SessionGeometry::FillOutcome SessionGeometry::bridge(const rpc::MeshDocument& do
     collect(f);
     leftovers_filled += f.filled ? 1 : 0;
   }
-  holes_.reset();
+  forget_search();
   summary = fmt::format("bridged {} of {} gaps{}{}{}", bridged, selected.size(),
                         all.leftover_fills.empty()
                             ? ""
@@ -986,7 +1028,7 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_snap(const rpc::MeshDoc
   // Patch vertices and their positions before, to report the moves.
   const std::map<int, geometry::Vec3> before = patch_positions(*state);
   const geometry::SnapReport snap = geometry::snap_to_guide(mesh_, *state);
-  holes_.reset();
+  forget_search();
   if (state->on_guide.empty()) {
     outcome.status = {StatusCode::FailedPrecondition,
                       "the curve does not cross the patch seen along its normal: pick P2 and P3 "
@@ -1092,7 +1134,9 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_push(const rpc::MeshDoc
     const std::uint32_t id = doc_vertex(static_cast<std::size_t>(v.idx()));
     tool.on_guide[id] = state->on_guide[v.idx()];
     tool.moved.insert(id);
+    note_moved(v);
   }
+  bound_touched();
   report.samples = static_cast<std::uint32_t>(samples);
   outcome.delta = move_delta(document, moved);
   pending_vertex_map_.clear();
@@ -1111,7 +1155,7 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_smooth(const rpc::MeshD
   // A finish that fails or folds the patch into the mesh is undone there and refused here.
   const geometry::PushFinishReport finished =
       geometry::finish_push(mesh_, *state, finish, /*check_intersections=*/true);
-  holes_.reset();
+  forget_search();
   if (!finished.undone.empty()) {
     outcome.status = {StatusCode::FailedPrecondition, finished.undone};
     return outcome;
@@ -1174,11 +1218,16 @@ void SessionGeometry::apply(const v1::MeshDelta& delta) {
     invalidate();
     return;
   }
-  holes_.reset();
+  // The holes are updated from the vertices the edit touches (update_holes), not searched
+  // again: the corners of the faces it deletes and adds, the vertices it moves and their
+  // neighbours.
   const auto fail = [this] { invalidate(); };
+  std::vector<VertexHandle> moved;
   for (const std::uint32_t f : delta.removed_faces()) {
     const std::uint32_t mf = f < mesh_of_doc_face_.size() ? mesh_of_doc_face_[f] : kNoId;
     if (mf == kNoId || mesh_.status(FaceHandle(static_cast<int>(mf))).deleted()) return fail();
+    for (const VertexHandle v : mesh_.fv_range(FaceHandle(static_cast<int>(mf))))
+      touched_.push_back(v);
     // Keep the vertices: a removed vertex stays as an isolated slot, as after a rebuild.
     mesh_.delete_face(FaceHandle(static_cast<int>(mf)), false);
     mesh_of_doc_face_[f] = kNoId;
@@ -1203,6 +1252,7 @@ void SessionGeometry::apply(const v1::MeshDelta& delta) {
       const VertexHandle vh(static_cast<int>(mv));
       if (mesh_.status(vh).deleted() || !mesh_.is_isolated(vh)) return fail();
       mesh_.set_point(vh, p);
+      moved.push_back(vh);
     }
   }
   for (int i = 0; i < delta.moved_vertex_ids_size(); ++i) {
@@ -1212,6 +1262,7 @@ void SessionGeometry::apply(const v1::MeshDelta& delta) {
     mesh_.set_point(VertexHandle(static_cast<int>(mv)),
                     geometry::Vec3(delta.moved_positions(3 * i), delta.moved_positions(3 * i + 1),
                                    delta.moved_positions(3 * i + 2)));
+    moved.push_back(VertexHandle(static_cast<int>(mv)));
   }
   for (int i = 0; i < delta.added_face_ids_size(); ++i) {
     std::array<VertexHandle, 3> corners;
@@ -1223,12 +1274,16 @@ void SessionGeometry::apply(const v1::MeshDelta& delta) {
     }
     const FaceHandle fh = mesh_.add_face(corners[0], corners[1], corners[2]);
     if (!fh.is_valid()) return fail();  // OpenMesh could not link it: rebuild from the document
+    touched_.insert(touched_.end(), corners.begin(), corners.end());
+    if (reach_) reach_->add(mesh_, std::span<const FaceHandle>(&fh, 1));
     const std::uint32_t f = delta.added_face_ids(i);
     if (mesh_of_doc_face_.size() <= f) mesh_of_doc_face_.resize(f + 1, kNoId);
     mesh_of_doc_face_[f] = static_cast<std::uint32_t>(fh.idx());
     doc_of_mesh_face_.resize(mesh_.n_faces(), kNoId);
     doc_of_mesh_face_[static_cast<std::size_t>(fh.idx())] = f;
   }
+  for (const VertexHandle v : moved) note_moved(v);
+  bound_touched();
   version_ = delta.version();
   bound_growth();
 }

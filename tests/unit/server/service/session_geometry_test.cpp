@@ -2,11 +2,13 @@
 
 #include <fstream>
 #include <iterator>
+#include <random>
 
 #include <gtest/gtest.h>
 
 #include "server/geometry/mesh_io.h"
 #include "tests/support/cases.h"
+#include "tests/support/mesh_factory.h"
 
 namespace touchmend::service {
 namespace {
@@ -74,6 +76,82 @@ TEST(SessionGeometry, UndoAndRedoUpdateTheCacheLikeARebuild) {
   cache.apply(stale);
   EXPECT_FALSE(cache.cached());
   EXPECT_EQ(hole_ids(cache, doc).size(), 1u);
+}
+
+//! Every property of the holes \p g lists, as bytes (loops, ids, measures).
+std::vector<std::string> hole_listing(SessionGeometry& g, const rpc::MeshDocument& d) {
+  std::vector<std::string> out;
+  for (const auto& h : g.holes(d)) out.push_back(h.SerializeAsString());
+  return out;
+}
+
+// Edits in a row as a session makes them: fills of random holes, undos and redos, the holes
+// listed between them. The cache updates its holes from the vertices each edit touched
+// (geometry::update_holes) instead of searching the mesh again; after every edit its listing is
+// that of a cache built from the document.
+TEST(SessionGeometry, HolesAfterEditsInARowAreThoseOfARebuild) {
+  const geometry::MeshSoup soup =
+      testing::remove_faces(testing::grid(24, 24), [](const geometry::Vec3& c) {
+        const auto in = [&](double x, double y, double r) {
+          return (c[0] - x) * (c[0] - x) + (c[1] - y) * (c[1] - y) < r * r;
+        };
+        return in(5, 5, 2.2) || in(12, 6, 1.6) || in(18, 17, 2.6) || in(6, 16, 1.2) ||
+               (c[0] > 14 && c[0] < 15 && c[1] > 10 && c[1] < 11) ||
+               (c[0] > 15 && c[0] < 16 && c[1] > 11 && c[1] < 12);
+      });
+  LoadedMesh loaded;
+  ASSERT_TRUE(load_document(testing::to_off(soup), geometry::MeshFormat::Off, {}, loaded).is_ok());
+  rpc::MeshDocument doc = loaded.document;
+  SessionGeometry cache;
+  std::vector<v1::MeshDelta> done, undone;
+  std::mt19937 random(11);
+  std::size_t fills = 0, undos = 0, redos = 0;
+  for (int step = 0; step < 60; ++step) {
+    const auto listing = hole_listing(cache, doc);
+    const int kind = static_cast<int>(random() % 3);
+    if (kind == 0 && !undone.empty()) {  // redo
+      const v1::MeshDelta redo = rpc::rebase_delta(undone.back(), doc.version);
+      undone.pop_back();
+      ASSERT_TRUE(rpc::apply_delta(doc, redo).is_ok());
+      cache.apply(redo);
+      done.push_back(redo);
+      ++redos;
+    } else if (kind == 1 && !done.empty()) {  // undo
+      const v1::MeshDelta undo = rpc::invert_delta(done.back(), doc);
+      undone.push_back(done.back());
+      done.pop_back();
+      ASSERT_TRUE(rpc::apply_delta(doc, undo).is_ok());
+      cache.apply(undo);
+      ++undos;
+    } else {  // fill one hole other than the grid's outer border
+      const auto holes = cache.holes(doc);
+      std::vector<std::uint32_t> inner;
+      for (const auto& h : holes)
+        if (h.boundary_edges() < 90) inner.push_back(h.id());
+      if (inner.empty()) continue;
+      v1::HoleSelection selection;
+      selection.mutable_ids()->add_ids(inner[random() % inner.size()]);
+      auto filled = cache.fill(doc, selection, {}, {});
+      ASSERT_TRUE(filled.status.is_ok()) << filled.status.to_string();
+      if (filled.delta.added_face_ids_size() == 0) {
+        cache.commit_pending();
+        cache.invalidate();
+        continue;
+      }
+      ASSERT_TRUE(rpc::apply_delta(doc, filled.delta).is_ok());
+      cache.commit_pending();
+      done.push_back(filled.delta);
+      undone.clear();
+      ++fills;
+    }
+    ASSERT_TRUE(cache.cached()) << "step " << step;
+    SessionGeometry rebuilt;
+    ASSERT_EQ(hole_listing(cache, doc), hole_listing(rebuilt, doc)) << "step " << step;
+    EXPECT_NE(hole_listing(cache, doc), listing) << "step " << step << ": the edit changed no hole";
+  }
+  EXPECT_GT(fills, 10u);
+  EXPECT_GT(undos, 5u);
+  EXPECT_GT(redos, 3u);
 }
 
 }  // namespace
