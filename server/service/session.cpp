@@ -350,8 +350,7 @@ Status Session::fill(const v1::FillHolesRequest& request, const std::string& pri
   }
   *response.mutable_report() = outcome.report;
   if (delta_is_empty(outcome.delta)) {
-    geometry_.commit_pending();  // nothing added; failed attempts are deleted in the cache
-    geometry_.invalidate();
+    geometry_.discard_pending();  // nothing added; failed attempts are deleted in the cache
     response.set_version(document_.version);
     return {};
   }

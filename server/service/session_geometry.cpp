@@ -1213,6 +1213,17 @@ void SessionGeometry::commit_pending() {
   bound_growth();
 }
 
+void SessionGeometry::discard_pending() {
+  pending_vertex_map_.clear();
+  pending_face_map_.clear();
+  pending_removed_faces_.clear();
+  pending_removed_vertices_.clear();
+  // The attempts' elements are deleted in the cache: they map to no document slot.
+  doc_of_mesh_vertex_.resize(mesh_.n_vertices(), kNoId);
+  doc_of_mesh_face_.resize(mesh_.n_faces(), kNoId);
+  bound_growth();
+}
+
 void SessionGeometry::apply(const v1::MeshDelta& delta) {
   if (!valid_ || version_ != delta.base_version()) {
     invalidate();

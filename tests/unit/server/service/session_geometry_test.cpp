@@ -134,8 +134,7 @@ TEST(SessionGeometry, HolesAfterEditsInARowAreThoseOfARebuild) {
       auto filled = cache.fill(doc, selection, {}, {});
       ASSERT_TRUE(filled.status.is_ok()) << filled.status.to_string();
       if (filled.delta.added_face_ids_size() == 0) {
-        cache.commit_pending();
-        cache.invalidate();
+        cache.discard_pending();  // left open, as Session::fill answers it
         continue;
       }
       ASSERT_TRUE(rpc::apply_delta(doc, filled.delta).is_ok());
@@ -152,6 +151,50 @@ TEST(SessionGeometry, HolesAfterEditsInARowAreThoseOfARebuild) {
   EXPECT_GT(fills, 10u);
   EXPECT_GT(undos, 5u);
   EXPECT_GT(redos, 3u);
+}
+
+// A fill that leaves its hole open (the outline of a lone triangle: a fragment, not a hole) adds
+// nothing; the cache stays (discard_pending), its holes those of a rebuild, and the next fill
+// works on it.
+TEST(SessionGeometry, AFillThatAddsNothingKeepsTheCache) {
+  const geometry::MeshSoup soup = testing::with_lone_triangle(
+      testing::remove_faces(
+          testing::grid(10, 10),
+          [](const geometry::Vec3& c) { return c[0] > 3 && c[0] < 6 && c[1] > 3 && c[1] < 6; }),
+      {30, 0, 0});
+  LoadedMesh loaded;
+  ASSERT_TRUE(load_document(testing::to_off(soup), geometry::MeshFormat::Off, {}, loaded).is_ok());
+  rpc::MeshDocument doc = loaded.document;
+  SessionGeometry cache;
+  std::uint32_t fragment = kNoId, hole = kNoId;
+  for (const auto& h : cache.holes(doc)) {
+    if (h.fragment_faces() > 0) fragment = h.id();
+    if (h.boundary_edges() == 12) hole = h.id();
+  }
+  ASSERT_NE(fragment, kNoId);
+  ASSERT_NE(hole, kNoId);
+  v1::HoleSelection selection;
+  selection.mutable_ids()->add_ids(fragment);
+  auto left = cache.fill(doc, selection, {}, {});
+  ASSERT_TRUE(left.status.is_ok()) << left.status.to_string();
+  ASSERT_EQ(left.report.holes_size(), 1);
+  EXPECT_FALSE(left.report.holes(0).filled());
+  EXPECT_EQ(left.delta.added_face_ids_size(), 0);
+  cache.discard_pending();
+  EXPECT_TRUE(cache.cached());
+  SessionGeometry rebuilt;
+  EXPECT_EQ(hole_listing(cache, doc), hole_listing(rebuilt, doc));
+
+  v1::HoleSelection next;
+  next.mutable_ids()->add_ids(hole);
+  auto filled = cache.fill(doc, next, {}, {});
+  ASSERT_TRUE(filled.status.is_ok()) << filled.status.to_string();
+  ASSERT_TRUE(rpc::apply_delta(doc, filled.delta).is_ok());
+  cache.commit_pending();
+  EXPECT_TRUE(cache.cached());
+  SessionGeometry rebuilt_after;
+  EXPECT_EQ(hole_listing(cache, doc), hole_listing(rebuilt_after, doc));
+  EXPECT_EQ(hole_listing(cache, doc).size(), 2u);  // the grid's border and the fragment
 }
 
 }  // namespace
