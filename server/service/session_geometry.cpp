@@ -9,6 +9,7 @@
 
 #include "server/geometry/gap_bridging.h"
 #include "server/geometry/intersection.h"
+#include "server/geometry/local_map.h"
 #include "server/geometry/mesh_intersections.h"
 #include "server/geometry/metrics.h"
 
@@ -509,8 +510,14 @@ v1::MeshDelta SessionGeometry::edit_delta(const rpc::MeshDocument& document,
     while (next_face < document.faces.size() && document.face_alive[next_face]) ++next_face;
     return next_face++;
   };
-  std::vector<std::uint32_t> vertex_map = doc_of_mesh_vertex_;
-  vertex_map.resize(mesh_.n_vertices(), kNoId);
+  // The new vertices' slots; the others' are doc_of_mesh_vertex_'s (a copy of that map per edit
+  // was a memcpy of the whole mesh's vertices).
+  geometry::LocalMap<std::uint32_t> new_slot(2 * new_vertices.size() + 16);
+  const auto slot_of = [&](VertexHandle v) {
+    const auto i = static_cast<std::size_t>(v.idx());
+    if (const std::uint32_t* s = new_slot.find(v.idx())) return *s;
+    return i < doc_of_mesh_vertex_.size() ? doc_of_mesh_vertex_[i] : kNoId;
+  };
   // New elements get document ids in handle order, the order garbage collection keeps, so an
   // export lists them exactly as an in-process edit written to a file does.
   std::sort(new_vertices.begin(), new_vertices.end());
@@ -518,7 +525,7 @@ v1::MeshDelta SessionGeometry::edit_delta(const rpc::MeshDocument& document,
   for (const auto v : new_vertices) {
     const auto& p = mesh_.point(v);
     const std::uint32_t slot = take_vertex_slot();
-    vertex_map[static_cast<std::size_t>(v.idx())] = slot;
+    new_slot.insert(v.idx(), slot);
     pending_vertex_map_.push_back(static_cast<std::uint32_t>(v.idx()));
     pending_vertex_map_.push_back(slot);
     delta.add_added_vertex_ids(slot);
@@ -532,7 +539,7 @@ v1::MeshDelta SessionGeometry::edit_delta(const rpc::MeshDocument& document,
     pending_face_map_.push_back(slot);
     delta.add_added_face_ids(slot);
     for (const auto v : mesh_.fv_range(f)) {
-      delta.add_added_faces(vertex_map[static_cast<std::size_t>(v.idx())]);
+      delta.add_added_faces(slot_of(v));
     }
   }
   pending_version_ = document.version + 1;
