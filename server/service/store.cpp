@@ -87,7 +87,64 @@ CREATE TABLE IF NOT EXISTS jobs(
   finished_ms INTEGER NOT NULL DEFAULT 0, result_bytes INTEGER NOT NULL DEFAULT 0);
 )sql";
 
+constexpr const char* kSnapshotSchema = R"sql(
+CREATE TABLE IF NOT EXISTS snapshots(
+  session_id TEXT NOT NULL, version INTEGER NOT NULL, document BLOB NOT NULL,
+  undo TEXT NOT NULL, redo TEXT NOT NULL, mesh_name TEXT NOT NULL DEFAULT '',
+  PRIMARY KEY(session_id, version));
+)sql";
+
+bool exec_ok(sqlite3* db, const char* sql) {
+  return sqlite3_exec(db, sql, nullptr, nullptr, nullptr) == SQLITE_OK;
+}
+
+//! Opens the snapshot file: WAL, no fsync per commit (NORMAL keeps it consistent across a
+//! crash; a snapshot lost to a power cut leaves an older one or the journal), its schema, and an
+//! integrity check. Null when any of that fails.
+sqlite3* open_snapshot_db(const std::filesystem::path& file) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(file.c_str(), &db,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+                      nullptr) != SQLITE_OK) {
+    sqlite3_close(db);
+    return nullptr;
+  }
+  sqlite3_busy_timeout(db, 5000);
+  bool ok = exec_ok(db, "PRAGMA journal_mode=WAL") && exec_ok(db, "PRAGMA synchronous=NORMAL") &&
+            exec_ok(db, kSnapshotSchema);
+  if (ok) {
+    Statement check(db, "PRAGMA quick_check");
+    ok = check.ok() && check.step() == SQLITE_ROW && check.text(0) == "ok";
+  }
+  if (!ok) {
+    sqlite3_close(db);
+    return nullptr;
+  }
+  return db;
+}
+
+//! The newest snapshot of \p session_id in \p db.
+std::optional<SnapshotRow> newest_snapshot(sqlite3* db, const std::string& session_id) {
+  Statement st(db,
+               "SELECT version,document,undo,redo,mesh_name FROM snapshots WHERE session_id=? "
+               "ORDER BY version DESC LIMIT 1");
+  st.bind_text(1, session_id);
+  if (st.step() != SQLITE_ROW) return std::nullopt;
+  SnapshotRow row;
+  row.session_id = session_id;
+  row.version = static_cast<std::uint64_t>(st.integer(0));
+  row.document = st.blob(1);
+  row.undo = split_versions(st.text(2));
+  row.redo = split_versions(st.text(3));
+  row.mesh_name = st.text(4);
+  return row;
+}
+
 }  // namespace
+
+std::filesystem::path Store::snapshot_file(const std::filesystem::path& store_file) {
+  return store_file.string() + "-snapshots";
+}
 
 std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& status) {
   sqlite3* db = nullptr;
@@ -121,11 +178,23 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& st
       return nullptr;
     }
   }
+  // The snapshot file holds nothing the journal does not: a damaged one is set aside (renamed,
+  // not deleted) and a new one started; if even that fails, snapshots stay in the store file.
+  const std::filesystem::path snapshots = snapshot_file(file);
+  store->snapshot_db_ = open_snapshot_db(snapshots);
+  if (store->snapshot_db_ == nullptr) {
+    std::error_code ignored;
+    for (const char* suffix : {"", "-wal", "-shm"})
+      std::filesystem::rename(snapshots.string() + suffix, snapshots.string() + ".damaged" + suffix,
+                              ignored);
+    store->snapshot_db_ = open_snapshot_db(snapshots);
+  }
   status = {};
   return store;
 }
 
 Store::~Store() {
+  sqlite3_close(snapshot_db_);
   sqlite3_close(db_);
 }
 
@@ -160,6 +229,17 @@ Status Store::insert_session(const SessionRow& row) {
 }
 
 Status Store::delete_session(const std::string& id) {
+  // The snapshot file first: a crash between the two leaves the session with its journal (and
+  // its load's snapshot), which recovers it; the other order could leave snapshots of a deleted
+  // session behind.
+  if (snapshot_db_ != nullptr) {
+    std::lock_guard lock(snapshot_mutex_);
+    Statement st(snapshot_db_, "DELETE FROM snapshots WHERE session_id=?");
+    st.bind_text(1, id);
+    if (st.step() != SQLITE_DONE)
+      return {StatusCode::Internal,
+              std::string("delete session snapshots: ") + sqlite3_errmsg(snapshot_db_)};
+  }
   std::lock_guard lock(mutex_);
   if (Status s = exec("BEGIN IMMEDIATE"); !s.is_ok()) return s;
   for (const char* sql :
@@ -248,6 +328,37 @@ Status Store::append_journal(const JournalRow& row, const SnapshotRow* snapshot)
 }
 
 Status Store::write_snapshot(const SnapshotRow& row) {
+  if (snapshot_db_ != nullptr) {
+    {
+      std::lock_guard lock(snapshot_mutex_);
+      // One transaction: a crash never leaves the new snapshot missing with the older ones
+      // already deleted.
+      if (!exec_ok(snapshot_db_, "BEGIN IMMEDIATE"))
+        return {StatusCode::Internal, std::string("snapshot: ") + sqlite3_errmsg(snapshot_db_)};
+      Statement st(snapshot_db_, "DELETE FROM snapshots WHERE session_id=? AND version<?");
+      st.bind_text(1, row.session_id);
+      st.bind(2, static_cast<std::int64_t>(row.version));
+      if (!insert_snapshot(snapshot_db_, row) || st.step() != SQLITE_DONE ||
+          !exec_ok(snapshot_db_, "COMMIT")) {
+        Status s{StatusCode::Internal, std::string("snapshot: ") + sqlite3_errmsg(snapshot_db_)};
+        exec_ok(snapshot_db_, "ROLLBACK");
+        return s;
+      }
+    }
+    // Older snapshots in the store file (a load's, or from before the snapshot file) are
+    // superseded: deleted, but only when there are any, so the journal's lock is taken for a
+    // read in the usual case.
+    std::lock_guard lock(mutex_);
+    Statement older(db_, "SELECT 1 FROM snapshots WHERE session_id=? AND version<? LIMIT 1");
+    older.bind_text(1, row.session_id);
+    older.bind(2, static_cast<std::int64_t>(row.version));
+    if (older.step() != SQLITE_ROW) return {};
+    Statement st(db_, "DELETE FROM snapshots WHERE session_id=? AND version<?");
+    st.bind_text(1, row.session_id);
+    st.bind(2, static_cast<std::int64_t>(row.version));
+    if (st.step() != SQLITE_DONE) return error("snapshot cleanup");
+    return {};
+  }
   std::lock_guard lock(mutex_);
   // A snapshot only shortens recovery (the journal past it is replayed), so it skips its own
   // fsync: in WAL mode synchronous=NORMAL still keeps the database consistent across a crash,
@@ -271,20 +382,15 @@ Status Store::write_snapshot(const SnapshotRow& row) {
 }
 
 std::optional<SnapshotRow> Store::latest_snapshot(const std::string& session_id) {
+  std::optional<SnapshotRow> periodic;
+  if (snapshot_db_ != nullptr) {
+    std::lock_guard lock(snapshot_mutex_);
+    periodic = newest_snapshot(snapshot_db_, session_id);
+  }
   std::lock_guard lock(mutex_);
-  Statement st(db_,
-               "SELECT version,document,undo,redo,mesh_name FROM snapshots WHERE session_id=? "
-               "ORDER BY version DESC LIMIT 1");
-  st.bind_text(1, session_id);
-  if (st.step() != SQLITE_ROW) return std::nullopt;
-  SnapshotRow row;
-  row.session_id = session_id;
-  row.version = static_cast<std::uint64_t>(st.integer(0));
-  row.document = st.blob(1);
-  row.undo = split_versions(st.text(2));
-  row.redo = split_versions(st.text(3));
-  row.mesh_name = st.text(4);
-  return row;
+  std::optional<SnapshotRow> stored = newest_snapshot(db_, session_id);
+  if (!stored || (periodic && periodic->version > stored->version)) return periodic;
+  return stored;
 }
 
 namespace {

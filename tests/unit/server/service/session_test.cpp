@@ -72,6 +72,73 @@ class SessionTest : public ::testing::Test {
   Metrics metrics_;
 };
 
+//! A snapshot row of \p document bytes at \p version.
+SnapshotRow snapshot_at(std::uint64_t version, const std::string& document) {
+  SnapshotRow row;
+  row.session_id = "s1";
+  row.version = version;
+  row.document = document;
+  row.undo = {version};
+  row.mesh_name = "m";
+  return row;
+}
+
+// Periodic snapshots go to their own file (so writing one never holds the journal's lock); a
+// load's snapshot stays in the store file with its journal row. The newest of the two is the
+// one recovery starts from, across a reopen; deleting the session deletes both.
+TEST_F(SessionTest, PeriodicSnapshotsHaveTheirOwnFileAndTheNewestWins) {
+  ASSERT_TRUE(store_->has_snapshot_file());
+  EXPECT_TRUE(fs::exists(Store::snapshot_file(dir_ / "touchmend.db")));
+  JournalRow load;
+  load.session_id = "s1";
+  load.version = 1;
+  load.kind = JournalKind::Load;
+  load.response = "r";
+  const SnapshotRow loaded = snapshot_at(1, "A");
+  ASSERT_TRUE(store_->append_journal(load, &loaded).is_ok());
+  ASSERT_TRUE(store_->write_snapshot(snapshot_at(5, "B")).is_ok());
+  auto latest = store_->latest_snapshot("s1");
+  ASSERT_TRUE(latest);
+  EXPECT_EQ(latest->version, 5u);
+  EXPECT_EQ(latest->document, "B");
+  EXPECT_EQ(latest->undo, std::vector<std::uint64_t>{5});
+  // A later load's snapshot (store file) is newer than the periodic one.
+  load.version = 7;
+  const SnapshotRow reloaded = snapshot_at(7, "C");
+  ASSERT_TRUE(store_->append_journal(load, &reloaded).is_ok());
+  EXPECT_EQ(store_->latest_snapshot("s1")->document, "C");
+  ASSERT_TRUE(store_->write_snapshot(snapshot_at(9, "D")).is_ok());
+  store_.reset();
+  store_ = open_store();
+  ASSERT_TRUE(store_);
+  latest = store_->latest_snapshot("s1");
+  ASSERT_TRUE(latest);
+  EXPECT_EQ(latest->version, 9u);
+  EXPECT_EQ(latest->document, "D");
+  ASSERT_TRUE(store_->delete_session("s1").is_ok());
+  EXPECT_FALSE(store_->latest_snapshot("s1"));
+}
+
+// The snapshot file holds nothing the journal does not: a damaged one is set aside and a new
+// one started, and the store opens.
+TEST_F(SessionTest, ADamagedSnapshotFileIsSetAside) {
+  store_.reset();
+  const fs::path file = Store::snapshot_file(dir_ / "touchmend.db");
+  fs::remove(file.string() + "-wal");
+  fs::remove(file.string() + "-shm");
+  {
+    std::ofstream out(file, std::ios::binary | std::ios::trunc);
+    out << std::string(8192, 'x');
+  }
+  store_ = open_store();
+  ASSERT_TRUE(store_);
+  EXPECT_TRUE(store_->has_snapshot_file());
+  EXPECT_TRUE(fs::exists(file.string() + ".damaged"));
+  ASSERT_TRUE(store_->write_snapshot(snapshot_at(3, "E")).is_ok());
+  ASSERT_TRUE(store_->latest_snapshot("s1"));
+  EXPECT_EQ(store_->latest_snapshot("s1")->document, "E");
+}
+
 TEST_F(SessionTest, FillUndoCyclesReuseSlotsAndRecoverIdentically) {
   auto session = make_session();
   LoadedMesh loaded;
