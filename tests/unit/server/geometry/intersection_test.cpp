@@ -179,10 +179,26 @@ TEST(MeshIntersections, GroupsSkipOnlyTheirOwnPairs) {
           .empty());
 }
 
-// The reach's grid of vertices and list of long faces must find exactly what a scan of every face
-// finds: on a mesh large enough to get a grid (filed by the searches once they have scanned the
-// mesh a few times), with long faces beside fine ones, and after new vertices and faces were
-// added (as a fill adds them).
+//! The faces whose boxes meet \p box, by a scan of every face (what a search must find).
+std::vector<int> faces_meeting_by_scan(const Mesh& mesh, const Box3& box) {
+  std::vector<int> out;
+  for (const FaceHandle f : mesh.faces()) {
+    TrianglePoints t;
+    std::array<int, 3> ids;
+    face_corners(mesh, f, t, ids);
+    if (triangle_box(t).intersects(box)) out.push_back(f.idx());
+  }
+  return out;
+}
+
+//! The faces a search with \p reach finds for \p box, in index order.
+std::vector<int> faces_found(const Mesh& mesh, const Box3& box, const SearchReach& reach) {
+  std::vector<int> out;
+  for (const FaceHandle f : faces_in_box(mesh, box, reach)) out.push_back(f.idx());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 // A reach kept across edits, as a session keeps it: vertices moved (some far, stretching their
 // faces past the reach) and noted, after the grid was filed. Its searches still find every face
 // a scan finds. Without note_moved they miss the moved vertices' faces (the Debug build's check
@@ -191,22 +207,8 @@ TEST(MeshIntersections, SearchReachKeptThroughMovesFindsWhatAScanFinds) {
   Mesh mesh = build_mesh(testing::uv_sphere(1, 128, 72)).mesh;
   SearchReach reach = make_search_reach(mesh);
   ASSERT_GT(reach.grid_below, 0u);
-  const auto scan = [&](const Box3& box) {
-    std::vector<int> out;
-    for (const FaceHandle f : mesh.faces()) {
-      TrianglePoints t;
-      std::array<int, 3> ids;
-      face_corners(mesh, f, t, ids);
-      if (triangle_box(t).intersects(box)) out.push_back(f.idx());
-    }
-    return out;
-  };
-  const auto searched = [&](const Box3& box) {
-    std::vector<int> out;
-    for (const FaceHandle f : faces_in_box(mesh, box, reach)) out.push_back(f.idx());
-    std::sort(out.begin(), out.end());
-    return out;
-  };
+  const auto scan = [&](const Box3& box) { return faces_meeting_by_scan(mesh, box); };
+  const auto searched = [&](const Box3& box) { return faces_found(mesh, box, reach); };
   const auto box_at = [](const Vec3& c, double size) {
     return Box3(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
                 Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
@@ -243,6 +245,10 @@ TEST(MeshIntersections, SearchReachKeptThroughMovesFindsWhatAScanFinds) {
   EXPECT_GT(reach.long_faces.size(), listed);  // the far moves made long faces
 }
 
+// The reach's grid of vertices and list of long faces must find exactly what a scan of every face
+// finds: on a mesh large enough to get a grid (filed by the searches once they have scanned the
+// mesh a few times), with long faces beside fine ones, and after new vertices and faces were
+// added (as a fill adds them).
 TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
   MeshSoup soup = testing::uv_sphere(1, 128, 72);  // fine: > 8,192 vertices
   const auto offset = static_cast<std::uint32_t>(soup.points.size());
@@ -268,22 +274,8 @@ TEST(MeshIntersections, SearchReachFindsWhatAScanOfEveryFaceFinds) {
   reach.add(mesh, added);
   ASSERT_EQ(reach.long_faces.back(), added[0]);  // the short one is found through its corners
 
-  const auto scan = [&](const Box3& box) {
-    std::vector<int> out;
-    for (const FaceHandle f : mesh.faces()) {
-      TrianglePoints t;
-      std::array<int, 3> ids;
-      face_corners(mesh, f, t, ids);
-      if (triangle_box(t).intersects(box)) out.push_back(f.idx());
-    }
-    return out;
-  };
-  const auto searched = [&](const Box3& box) {
-    std::vector<int> out;
-    for (const FaceHandle f : faces_in_box(mesh, box, reach)) out.push_back(f.idx());
-    std::sort(out.begin(), out.end());
-    return out;
-  };
+  const auto scan = [&](const Box3& box) { return faces_meeting_by_scan(mesh, box); };
+  const auto searched = [&](const Box3& box) { return faces_found(mesh, box, reach); };
   std::size_t nonempty = 0;
   // First by scans passing over the runs of vertices whose boxes miss (the added vertices are
   // past the last run, which is not full; no grid), then with the grid, filed at the first
