@@ -255,6 +255,20 @@ void SearchReach::note_moved(const Mesh& mesh, VertexHandle v) {
   }
 }
 
+void SearchReach::box_new_vertices(const Mesh& mesh) {
+  const std::size_t n = mesh.n_vertices();
+  if (n <= blocks_below) return;
+  const Vec3* points = mesh.points();
+  const auto& status = mesh.property(mesh.vertex_status_pph()).data_vector();
+  // New boxes are empty; the run that held the last vertices boxed before grows.
+  block_boxes.resize((n + kVertexBlock - 1) / kVertexBlock);
+  for (std::size_t v = blocks_below; v < n; ++v)
+    if (!status[v].deleted())
+      block_boxes[v / kVertexBlock].extend(
+          Eigen::Vector3d(points[v][0], points[v][1], points[v][2]));
+  blocks_below = n;
+}
+
 namespace {
 
 //! The grid of \p mesh's vertices below index \p below with cells of (about) \p cell: one

@@ -91,6 +91,10 @@ struct SearchReach {
   //! take its new position, a filed grid is dropped (the searches file it again), and its faces
   //! the move made long are listed.
   void note_moved(const Mesh& mesh, VertexHandle v);
+  //! Boxes the vertices added since the runs were boxed (from blocks_below on), so the searches
+  //! pass over them run by run instead of reading each: for a reach kept across many fills.
+  //! They must not move afterwards (a fill moves only the vertices it adds, while it adds them).
+  void box_new_vertices(const Mesh& mesh);
 };
 
 //! The reach for \p mesh: longest_edge is a few times the median edge (capped by the longest

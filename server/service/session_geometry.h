@@ -184,8 +184,8 @@ class SessionGeometry {
   //! The hole search of the current mesh, done once per version (selection then fill is the
   //! interactive path: the second call reuses the first's search and projectability test).
   geometry::HoleSearchResult& search();
-  //! Forgets the holes when more vertices were touched than an update would save, and the
-  //! search reach when the fills since it was made added more vertices than its runs cover.
+  //! Forgets the holes when more vertices were touched than an update would save; boxes the
+  //! vertices the fills added on the search reach once they are a few thousand.
   void bound_touched();
   //! Forgets the holes and the search reach (an edit they are not kept through, a rebuild, a
   //! compaction).

@@ -318,6 +318,18 @@ Status Store::append_journal(const JournalRow& row, const SnapshotRow* snapshot)
     exec("ROLLBACK");
     return s;
   }
+  if (snapshot) {
+    // A load's snapshot supersedes the store file's older ones (the previous load's; periodic
+    // ones from before the snapshot file), in the same transaction.
+    Statement older(db_, "DELETE FROM snapshots WHERE session_id=? AND version<?");
+    older.bind_text(1, snapshot->session_id);
+    older.bind(2, static_cast<std::int64_t>(snapshot->version));
+    if (older.step() != SQLITE_DONE) {
+      Status s = error("journal append");
+      exec("ROLLBACK");
+      return s;
+    }
+  }
   if (Status s = exec("COMMIT"); !s.is_ok()) {
     exec("ROLLBACK");
     return {StatusCode::ResourceExhausted, s.message};
@@ -345,18 +357,8 @@ Status Store::write_snapshot(const SnapshotRow& row) {
         return s;
       }
     }
-    // Older snapshots in the store file (a load's, or from before the snapshot file) are
-    // superseded: deleted, but only when there are any, so the journal's lock is taken for a
-    // read in the usual case.
-    std::lock_guard lock(mutex_);
-    Statement older(db_, "SELECT 1 FROM snapshots WHERE session_id=? AND version<? LIMIT 1");
-    older.bind_text(1, row.session_id);
-    older.bind(2, static_cast<std::int64_t>(row.version));
-    if (older.step() != SQLITE_ROW) return {};
-    Statement st(db_, "DELETE FROM snapshots WHERE session_id=? AND version<?");
-    st.bind_text(1, row.session_id);
-    st.bind(2, static_cast<std::int64_t>(row.version));
-    if (st.step() != SQLITE_DONE) return error("snapshot cleanup");
+    // The store file's snapshot of the session (its last load's) stays until the next load
+    // replaces it: deleting a large one here took the journal's lock for tens of milliseconds.
     return {};
   }
   std::lock_guard lock(mutex_);

@@ -90,7 +90,8 @@ class Store {
   //! so the edit after it waited (the interactive fill's p99 on large meshes). A snapshot only
   //! shortens recovery (the journal past it is replayed), so that file is written without fsync
   //! and a damaged one is set aside and started afresh. Without that file (it could not be
-  //! opened), snapshots go to the store file as before.
+  //! opened), snapshots go to the store file as before. The store file keeps the session's
+  //! last load's snapshot (append_journal replaces it at the next load).
   Status write_snapshot(const SnapshotRow& row);
   //! The newest snapshot of the session in either file (a load's is in the store file).
   std::optional<SnapshotRow> latest_snapshot(const std::string& session_id);

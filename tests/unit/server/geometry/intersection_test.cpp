@@ -231,6 +231,29 @@ TEST(MeshIntersections, SearchReachKeptThroughMovesFindsWhatAScanFinds) {
       moved_to.push_back(mesh.point(v));
     }
     EXPECT_TRUE(reach.grid.empty());
+    // A fill's new vertices and faces, off the sphere: every other round they are boxed as runs
+    // (box_new_vertices), else read one by one past the runs.
+    const Vec3 base(unit(random), unit(random), unit(random));
+    const VertexHandle hub = mesh.add_vertex(base * 1.1 - Vec3(0.4, 0, 0));  // apart: its own box
+    std::vector<FaceHandle> added;
+    for (int k = 0; k < 40; ++k) {
+      const VertexHandle a = mesh.add_vertex(base * 1.1 + Vec3(0.01 * k, 0.02, 0.01));
+      const VertexHandle b = mesh.add_vertex(base * 1.1 + Vec3(0.01 * k, -0.02, 0.3 * (k % 3)));
+      added.push_back(mesh.add_face(hub, a, b));
+      moved_to.push_back(mesh.point(b));
+    }
+    reach.add(mesh, added);
+    if (round % 2 == 1) {
+      reach.box_new_vertices(mesh);
+      EXPECT_EQ(reach.blocks_below, mesh.n_vertices());
+    }
+    // The rule the runs rest on: every vertex below blocks_below lies in its run's box.
+    for (std::size_t v = 0; v < reach.blocks_below; ++v) {
+      const Vec3& p = mesh.point(VertexHandle(static_cast<int>(v)));
+      ASSERT_TRUE(reach.block_boxes[v / SearchReach::kVertexBlock].contains(
+          Eigen::Vector3d(p[0], p[1], p[2])))
+          << "round " << round << ", vertex " << v;
+    }
     for (const Vec3& p : moved_to)
       for (const double size : {0.001, 0.05, 0.3}) {
         const Box3 box = box_at(p, size);

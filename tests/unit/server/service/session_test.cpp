@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iterator>
 #include <random>
+#include <sqlite3.h>
 
 #include <gtest/gtest.h>
 
@@ -107,6 +108,20 @@ TEST_F(SessionTest, PeriodicSnapshotsHaveTheirOwnFileAndTheNewestWins) {
   const SnapshotRow reloaded = snapshot_at(7, "C");
   ASSERT_TRUE(store_->append_journal(load, &reloaded).is_ok());
   EXPECT_EQ(store_->latest_snapshot("s1")->document, "C");
+  {
+    // The second load's snapshot replaced the first in the store file.
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open_v2((dir_ / "touchmend.db").c_str(), &db, SQLITE_OPEN_READONLY, nullptr),
+              SQLITE_OK);
+    sqlite3_stmt* st = nullptr;
+    ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT count(*) FROM snapshots WHERE session_id='s1'", -1,
+                                 &st, nullptr),
+              SQLITE_OK);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+    EXPECT_EQ(sqlite3_column_int(st, 0), 1);
+    sqlite3_finalize(st);
+    sqlite3_close(db);
+  }
   ASSERT_TRUE(store_->write_snapshot(snapshot_at(9, "D")).is_ok());
   store_.reset();
   store_ = open_store();
