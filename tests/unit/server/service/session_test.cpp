@@ -232,5 +232,42 @@ TEST_F(SessionTest, FillUndoCyclesReuseSlotsAndRecoverIdentically) {
   EXPECT_EQ(hole_ids(*recovered).size(), 2u);
 }
 
+// Recovery from a periodic snapshot, which lives in the snapshot file, and the journal past it:
+// the same document and history as the session that wrote them.
+TEST_F(SessionTest, RecoversFromAPeriodicSnapshotAndTheJournalPastIt) {
+  auto session = make_session();
+  LoadedMesh loaded;
+  ASSERT_TRUE(load_document(sample(), geometry::MeshFormat::Off, {}, loaded).is_ok());
+  v1::LoadMeshResponse load_response;
+  ASSERT_TRUE(session->load(std::move(loaded), "spot", "local", load_response).is_ok());
+  const auto holes = hole_ids(*session);
+  ASSERT_EQ(holes.size(), 3u);
+  v1::EditResponse a, b, undone;
+  ASSERT_TRUE(fill_one(*session, holes[0], a).is_ok());
+  ASSERT_TRUE(fill_one(*session, holes[1], b).is_ok());
+  session->snapshot();  // as the strand does after enough edits, and at shutdown
+  const std::uint64_t snapshot_version = session->document().version;
+  const auto snap = store_->latest_snapshot("s1");
+  ASSERT_TRUE(snap);
+  EXPECT_EQ(snap->version, snapshot_version);
+  // Past the snapshot: an undo and a fill, journaled only.
+  ASSERT_TRUE(session->step_history(Session::History::Undo, "local", undone).is_ok());
+  v1::EditResponse c;
+  ASSERT_TRUE(fill_one(*session, holes[2], c).is_ok());
+  ASSERT_GT(session->document().version, snapshot_version);
+
+  store_.reset();  // as after a restart
+  store_ = open_store();
+  ASSERT_TRUE(store_);
+  auto recovered = make_session();
+  ASSERT_TRUE(recovered->recover().is_ok());
+  EXPECT_EQ(recovered->document(), session->document());
+  EXPECT_EQ(hole_ids(*recovered), hole_ids(*session));
+  // The history came back too: the undo of the last fill, then the redo-less older one.
+  v1::EditResponse back;
+  ASSERT_TRUE(recovered->step_history(Session::History::Undo, "local", back).is_ok());
+  EXPECT_EQ(hole_ids(*recovered).size(), 2u);
+}
+
 }  // namespace
 }  // namespace touchmend::service
