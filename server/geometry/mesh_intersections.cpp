@@ -260,12 +260,26 @@ void SearchReach::box_new_vertices(const Mesh& mesh) {
   if (n <= blocks_below) return;
   const Vec3* points = mesh.points();
   const auto& status = mesh.property(mesh.vertex_status_pph()).data_vector();
-  // New boxes are empty; the run that held the last vertices boxed before grows.
+  // New boxes are empty (Eigen's default box); the run that held the last vertices boxed before
+  // grows. Each run's box is gathered in locals, one pass over the points.
+  const std::size_t first = blocks_below / kVertexBlock;
   block_boxes.resize((n + kVertexBlock - 1) / kVertexBlock);
-  for (std::size_t v = blocks_below; v < n; ++v)
-    if (!status[v].deleted())
-      block_boxes[v / kVertexBlock].extend(
-          Eigen::Vector3d(points[v][0], points[v][1], points[v][2]));
+  for (std::size_t b = first; b < block_boxes.size(); ++b) {
+    Eigen::Array3d lo = Eigen::Array3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Array3d hi = -lo;
+    if (b == first && blocks_below % kVertexBlock != 0) {
+      lo = block_boxes[b].min().array();
+      hi = block_boxes[b].max().array();
+    }
+    const std::size_t end = std::min(n, (b + 1) * kVertexBlock);
+    for (std::size_t v = std::max(b * kVertexBlock, blocks_below); v < end; ++v) {
+      if (status[v].deleted()) continue;
+      const Eigen::Array3d p(points[v][0], points[v][1], points[v][2]);
+      lo = lo.min(p);
+      hi = hi.max(p);
+    }
+    block_boxes[b] = Box3(lo.matrix(), hi.matrix());
+  }
   blocks_below = n;
 }
 
@@ -381,22 +395,7 @@ SearchReach make_search_reach(const Mesh& mesh, bool with_grid) {
   // The boxes of the runs of vertices (SearchReach::block_boxes): one more pass, over the
   // points only (the edge pass above has just read them all). Taking them from the edge pass's
   // two points per edge cost more (six box updates per edge; rocker arm 0.18 -> 0.23 ms).
-  constexpr std::size_t kBlock = SearchReach::kVertexBlock;
-  const std::size_t n_vertices = mesh.n_vertices();
-  const auto& vertex_status = mesh.property(mesh.vertex_status_pph()).data_vector();
-  reach.block_boxes.resize((n_vertices + kBlock - 1) / kBlock);
-  for (std::size_t b = 0; b < reach.block_boxes.size(); ++b) {
-    Eigen::Array3d lo = Eigen::Array3d::Constant(std::numeric_limits<double>::infinity());
-    Eigen::Array3d hi = -lo;
-    for (std::size_t v = b * kBlock; v < std::min(n_vertices, (b + 1) * kBlock); ++v) {
-      if (vertex_status[v].deleted()) continue;
-      const Eigen::Array3d p(points[v][0], points[v][1], points[v][2]);
-      lo = lo.min(p);
-      hi = hi.max(p);
-    }
-    reach.block_boxes[b] = Box3(lo.matrix(), hi.matrix());
-  }
-  reach.blocks_below = n_vertices;
+  reach.box_new_vertices(mesh);  // every vertex is new to it
   // A scan of a few thousand points costs less than filing them (the round trip of the
   // interactive fill is measured on such a mesh); on larger meshes the searches file them once
   // they have scanned as much as the filing costs (for_each_vertex_near).
