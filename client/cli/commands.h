@@ -14,6 +14,7 @@
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_io.h"
 #include "server/geometry/sharpen.h"
+#include "touchmend/v1/repair.pb.h"
 
 namespace touchmend::cli {
 
@@ -138,5 +139,9 @@ bool parse_sharpen_picks(const SharpenArgs& args, geometry::PickedCreases& picke
 
 //! Parses "X,Y,Z" into a finite point.
 bool parse_point(const std::string& text, geometry::Vec3& point);
+
+//! The wire's format for a mesh file, by its extension (geometry::format_from_path); false if
+//! it is none the reader knows.
+bool wire_format(const std::string& path, v1::MeshFormat& format);
 
 }  // namespace touchmend::cli

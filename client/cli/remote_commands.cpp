@@ -16,6 +16,15 @@
 #include "server/geometry/sharpen.h"
 
 namespace touchmend::cli {
+
+bool wire_format(const std::string& path, v1::MeshFormat& format) {
+  geometry::MeshFormat f;
+  if (!geometry::format_from_path(path, f)) return false;
+  static const v1::MeshFormat map[] = {v1::OFF, v1::OBJ, v1::PLY, v1::STL};
+  format = map[static_cast<int>(f)];
+  return true;
+}
+
 namespace {
 
 using net::Status;
@@ -72,14 +81,6 @@ bool read_file(const std::string& path, std::string& bytes, std::ostream& err) {
   std::ostringstream buffer;
   buffer << in.rdbuf();
   bytes = buffer.str();
-  return true;
-}
-
-bool wire_format(const std::string& path, v1::MeshFormat& format) {
-  geometry::MeshFormat f;
-  if (!geometry::format_from_path(path, f)) return false;
-  static const v1::MeshFormat map[] = {v1::OFF, v1::OBJ, v1::PLY, v1::STL};
-  format = map[static_cast<int>(f)];
   return true;
 }
 

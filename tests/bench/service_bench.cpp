@@ -22,6 +22,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "client/cli/commands.h"
 #include "server/geometry/mesh_build.h"
 #include "server/geometry/mesh_io.h"
 #include "tests/integration/server_process.h"
@@ -381,20 +382,7 @@ int main(int argc, char** argv) {
     }
     std::ifstream in(mesh_path, std::ios::binary);
     trip.bytes.assign(std::istreambuf_iterator<char>(in), {});
-    switch (read.report.format) {
-      case geometry::MeshFormat::Obj:
-        trip.format = v1::OBJ;
-        break;
-      case geometry::MeshFormat::Ply:
-        trip.format = v1::PLY;
-        break;
-      case geometry::MeshFormat::Stl:
-        trip.format = v1::STL;
-        break;
-      default:
-        trip.format = v1::OFF;
-        break;
-    }
+    cli::wire_format(mesh_path, trip.format);  // the reader knew the extension
     trip.name = std::filesystem::path(mesh_path).filename().string();
     trip.near = {near[0], near[1], near[2]};
     trip.faces = read.soup.triangles.size();

@@ -54,6 +54,13 @@ class SessionTest : public ::testing::Test {
     options.snapshot_every = 1'000'000;  // no snapshot task racing the test thread
     return std::make_shared<Session>(row_, *store_, pool_, metrics_, options);
   }
+  //! Loads the sample (Spot with three holes) into \p s.
+  static bool load_sample(Session& s) {
+    LoadedMesh loaded;
+    if (!load_document(sample(), geometry::MeshFormat::Off, {}, loaded).is_ok()) return false;
+    v1::LoadMeshResponse response;
+    return s.load(std::move(loaded), "spot", "local", response).is_ok();
+  }
   static std::vector<std::uint32_t> hole_ids(Session& s) {
     std::vector<std::uint32_t> ids;
     for (const auto& h : s.holes()) ids.push_back(h.id());
@@ -156,10 +163,7 @@ TEST_F(SessionTest, ADamagedSnapshotFileIsSetAside) {
 
 TEST_F(SessionTest, FillUndoCyclesReuseSlotsAndRecoverIdentically) {
   auto session = make_session();
-  LoadedMesh loaded;
-  ASSERT_TRUE(load_document(sample(), geometry::MeshFormat::Off, {}, loaded).is_ok());
-  v1::LoadMeshResponse load_response;
-  ASSERT_TRUE(session->load(std::move(loaded), "spot", "local", load_response).is_ok());
+  ASSERT_TRUE(load_sample(*session));
   const auto holes = hole_ids(*session);
   ASSERT_EQ(holes.size(), 3u);
   const std::size_t loaded_vertices = session->document().positions.size();
@@ -236,10 +240,7 @@ TEST_F(SessionTest, FillUndoCyclesReuseSlotsAndRecoverIdentically) {
 // the same document and history as the session that wrote them.
 TEST_F(SessionTest, RecoversFromAPeriodicSnapshotAndTheJournalPastIt) {
   auto session = make_session();
-  LoadedMesh loaded;
-  ASSERT_TRUE(load_document(sample(), geometry::MeshFormat::Off, {}, loaded).is_ok());
-  v1::LoadMeshResponse load_response;
-  ASSERT_TRUE(session->load(std::move(loaded), "spot", "local", load_response).is_ok());
+  ASSERT_TRUE(load_sample(*session));
   const auto holes = hole_ids(*session);
   ASSERT_EQ(holes.size(), 3u);
   v1::EditResponse a, b, undone;
