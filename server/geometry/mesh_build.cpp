@@ -197,4 +197,18 @@ BuildResult build_mesh(const MeshSoup& soup) {
   return out;
 }
 
+bool drop_deleted_tail(Mesh& mesh) {
+  std::size_t n_vertices = mesh.n_vertices();
+  std::size_t n_edges = mesh.n_edges();
+  std::size_t n_faces = mesh.n_faces();
+  while (n_faces > 0 && mesh.status(FaceHandle(static_cast<int>(n_faces - 1))).deleted()) --n_faces;
+  while (n_edges > 0 && mesh.status(EdgeHandle(static_cast<int>(n_edges - 1))).deleted()) --n_edges;
+  while (n_vertices > 0 && mesh.status(VertexHandle(static_cast<int>(n_vertices - 1))).deleted())
+    --n_vertices;
+  if (n_vertices == mesh.n_vertices() && n_edges == mesh.n_edges() && n_faces == mesh.n_faces())
+    return false;
+  mesh.resize(n_vertices, n_edges, n_faces);
+  return true;
+}
+
 }  // namespace touchmend::geometry

@@ -61,4 +61,12 @@ struct BuildResult {
 //! \pre every coordinate is finite and every index is in range (the readers guarantee it).
 BuildResult build_mesh(const MeshSoup& soup);
 
+//! Drops the deleted vertices, edges and faces at the ends of \p mesh's arrays: a garbage
+//! collection of the tail alone, in O(what it drops), that leaves every other handle as it was
+//! (OpenMesh's collection reads the whole mesh and renumbers it). Elements deleted last sit
+//! there: those a fill's rejected attempts took out again, or those an undo removes, since undo
+//! takes back the last edit first. A live element never refers to a deleted one (OpenMesh's
+//! deletions unlink them), so nothing kept refers past the cut. Returns whether it dropped any.
+bool drop_deleted_tail(Mesh& mesh);
+
 }  // namespace touchmend::geometry

@@ -283,6 +283,29 @@ void SearchReach::box_new_vertices(const Mesh& mesh) {
   blocks_below = n;
 }
 
+void SearchReach::cut_back(std::size_t n_vertices, std::size_t n_faces) {
+  if (blocks_below > n_vertices) {
+    // The run that holds the last kept vertex keeps its box (it may be larger than its vertices
+    // now need); box_new_vertices grows it when new vertices fill the run again.
+    blocks_below = n_vertices;
+    block_boxes.resize((n_vertices + kVertexBlock - 1) / kVertexBlock);
+  }
+  if (grid_below > n_vertices) {
+    grid_below = n_vertices;
+    grid = VertexGrid{};
+    scanned = 0;
+  }
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < long_faces.size(); ++i) {
+    if (static_cast<std::size_t>(long_faces[i].idx()) >= n_faces) continue;
+    long_faces[kept] = long_faces[i];
+    long_boxes[kept] = long_boxes[i];
+    ++kept;
+  }
+  long_faces.resize(kept);
+  long_boxes.resize(kept);
+}
+
 namespace {
 
 //! The grid of \p mesh's vertices below index \p below with cells of (about) \p cell: one

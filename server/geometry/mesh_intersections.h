@@ -95,6 +95,10 @@ struct SearchReach {
   //! pass over them run by run instead of reading each: for a reach kept across many fills.
   //! They must not move afterwards (a fill moves only the vertices it adds, while it adds them).
   void box_new_vertices(const Mesh& mesh);
+  //! Keeps the reach true after the mesh's arrays were cut back to \p n_vertices and
+  //! \p n_faces (its trailing deleted elements dropped, mesh.resize): the runs and the grid end
+  //! there (the indices past it will be new vertices, anywhere), the long faces past it go.
+  void cut_back(std::size_t n_vertices, std::size_t n_faces);
 };
 
 //! The reach for \p mesh: longest_edge is a few times the median edge (capped by the longest

@@ -178,6 +178,9 @@ class SessionGeometry {
   void apply(const v1::MeshDelta& delta);
   //! Whether the cache currently mirrors a document version (for tests and diagnostics).
   bool cached() const { return valid_; }
+  //! The cache mesh's vertex and face slots, deleted ones included (for tests and diagnostics).
+  std::size_t mesh_vertex_slots() const { return mesh_.n_vertices(); }
+  std::size_t mesh_face_slots() const { return mesh_.n_faces(); }
 
  private:
   void sync(const rpc::MeshDocument& document);
@@ -237,6 +240,8 @@ class SessionGeometry {
   std::size_t faces_at_rebuild_ = 0;
   std::size_t vertices_at_rebuild_ = 0;
   void bound_growth();
+  //! Drops the mesh's trailing deleted elements (those an undo left), in O(their number).
+  void cut_deleted_tail();
   //! The delta adding \p new_vertices and \p new_faces (already in the cache), with the
   //! pending maps commit_pending() applies.
   v1::MeshDelta edit_delta(const rpc::MeshDocument& document,

@@ -268,6 +268,107 @@ TEST(MeshIntersections, SearchReachKeptThroughMovesFindsWhatAScanFinds) {
   EXPECT_GT(reach.long_faces.size(), listed);  // the far moves made long faces
 }
 
+// A session drops the deleted elements at the end of the mesh's arrays after an undo
+// (drop_deleted_tail) and keeps its reach (cut_back): the indices past the cut are then taken by
+// new vertices anywhere, and the searches must still find what a scan finds. Cut first above
+// the filed grid and the boxed runs (a fill undone), then into them (a part of the mesh itself).
+TEST(MeshIntersections, SearchReachCutBackWithTheMeshFindsWhatAScanFinds) {
+  Mesh mesh = build_mesh(testing::uv_sphere(1, 128, 72)).mesh;
+  const std::size_t sphere_vertices = mesh.n_vertices();
+  const std::size_t sphere_faces = mesh.n_faces();
+  SearchReach reach = make_search_reach(mesh);
+  ASSERT_GT(reach.grid_below, 0u);
+  const auto scan = [&](const Box3& box) { return faces_meeting_by_scan(mesh, box); };
+  const auto searched = [&](const Box3& box) { return faces_found(mesh, box, reach); };
+  const auto box_at = [](const Vec3& c, double size) {
+    return Box3(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
+                Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
+  };
+  std::mt19937 random(7);
+  std::uniform_real_distribution<> unit(-1, 1);
+  // A fan of new faces round a hub near \p at, long ones among them; filed and boxed.
+  const auto add_fan = [&](const Vec3& at) {
+    std::vector<Vec3> points;
+    const VertexHandle hub = mesh.add_vertex(at);
+    std::vector<FaceHandle> added;
+    for (int k = 0; k < 40; ++k) {
+      const VertexHandle a = mesh.add_vertex(at + Vec3(0.01 * k, 0.02, 0.01));
+      const VertexHandle b = mesh.add_vertex(at + Vec3(0.01 * k, -0.02, 0.3 * (k % 3)));
+      added.push_back(mesh.add_face(hub, a, b));
+      points.push_back(mesh.point(b));
+    }
+    reach.add(mesh, added);
+    reach.box_new_vertices(mesh);
+    return std::pair(added, points);
+  };
+  const auto check = [&](const std::vector<Vec3>& near, const char* what) {
+    for (std::size_t v = 0; v < std::min(reach.blocks_below, mesh.n_vertices()); ++v) {
+      const Vec3& p = mesh.point(VertexHandle(static_cast<int>(v)));
+      if (mesh.status(VertexHandle(static_cast<int>(v))).deleted()) continue;
+      ASSERT_TRUE(reach.block_boxes[v / SearchReach::kVertexBlock].contains(
+          Eigen::Vector3d(p[0], p[1], p[2])))
+          << what << ", vertex " << v;
+    }
+    for (const Vec3& p : near)
+      for (const double size : {0.001, 0.05, 0.3}) {
+        const Box3 box = box_at(p, size);
+        ASSERT_EQ(searched(box), scan(box)) << what;
+      }
+    for (int i = 0; i < 40; ++i) {
+      const Vec3 c(unit(random) * 1.3, unit(random) * 1.3, unit(random) * 1.3);
+      const Box3 box = box_at(c, 0.01 * (1 + i));
+      ASSERT_EQ(searched(box), scan(box)) << what << ", box " << i;
+    }
+  };
+  const auto file_grid = [&] {
+    reach.scanned = SearchReach::kScansBeforeFiling * reach.grid_below;
+    searched(box_at(Vec3(0, 0, 1), 0.01));
+    ASSERT_FALSE(reach.grid.empty());
+  };
+
+  // A fill and its undo: the arrays go back to the sphere's.
+  file_grid();
+  auto [fill, fill_points] = add_fan(Vec3(1.2, 0, 0));
+  check(fill_points, "after the fill");
+  for (const FaceHandle f : fill) mesh.delete_face(f, true);
+  EXPECT_TRUE(drop_deleted_tail(mesh));
+  EXPECT_FALSE(drop_deleted_tail(mesh));  // nothing left to drop
+  EXPECT_EQ(mesh.n_vertices(), sphere_vertices);
+  EXPECT_EQ(mesh.n_faces(), sphere_faces);
+  reach.cut_back(mesh.n_vertices(), mesh.n_faces());
+  EXPECT_EQ(reach.long_faces.size(), reach.long_boxes.size());
+  for (const FaceHandle f : reach.long_faces) EXPECT_LT(f.idx(), static_cast<int>(sphere_faces));
+  // Another fill elsewhere takes the same indices.
+  auto [other, other_points] = add_fan(Vec3(0, -1.2, 0.3));
+  check(other_points, "after a fill in the undone one's slots");
+
+  // Into the sphere: every face at its last vertices goes, and they with them.
+  for (const FaceHandle f : other) mesh.delete_face(f, true);
+  file_grid();
+  std::vector<FaceHandle> at_last;
+  for (std::size_t v = sphere_vertices - 300; v < sphere_vertices; ++v)
+    for (const FaceHandle f : mesh.vf_range(VertexHandle(static_cast<int>(v))))
+      at_last.push_back(f);
+  for (const FaceHandle f : at_last)
+    if (!mesh.status(f).deleted()) mesh.delete_face(f, true);
+  EXPECT_TRUE(drop_deleted_tail(mesh));
+  ASSERT_LE(mesh.n_vertices(), sphere_vertices - 300);
+  reach.cut_back(mesh.n_vertices(), mesh.n_faces());
+  EXPECT_LE(reach.grid_below, mesh.n_vertices());
+  EXPECT_LE(reach.blocks_below, mesh.n_vertices());
+  // What is left is a mesh OpenMesh can work on: its boundary loop is closed and new faces link.
+  for (const HalfedgeHandle h : mesh.halfedges()) {
+    if (mesh.status(mesh.edge_handle(h)).deleted()) continue;
+    ASSERT_LT(mesh.next_halfedge_handle(h).idx(), static_cast<int>(mesh.n_halfedges()));
+    ASSERT_LT(mesh.to_vertex_handle(h).idx(), static_cast<int>(mesh.n_vertices()));
+  }
+  auto [last, last_points] = add_fan(Vec3(0.3, 0.2, -1.2));
+  for (const FaceHandle f : last) ASSERT_TRUE(f.is_valid());
+  check(last_points, "after a fill in the sphere's slots");
+  file_grid();
+  check(last_points, "with the grid filed again");
+}
+
 // The reach's grid of vertices and list of long faces must find exactly what a scan of every face
 // finds: on a mesh large enough to get a grid (filed by the searches once they have scanned the
 // mesh a few times), with long faces beside fine ones, and after new vertices and faces were

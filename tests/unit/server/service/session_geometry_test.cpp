@@ -26,6 +26,13 @@ std::vector<std::uint32_t> hole_ids(SessionGeometry& g, const rpc::MeshDocument&
   return ids;
 }
 
+//! Every property of the holes \p g lists, as bytes (loops, ids, measures).
+std::vector<std::string> hole_listing(SessionGeometry& g, const rpc::MeshDocument& d) {
+  std::vector<std::string> out;
+  for (const auto& h : g.holes(d)) out.push_back(h.SerializeAsString());
+  return out;
+}
+
 TEST(SessionGeometry, UndoAndRedoUpdateTheCacheLikeARebuild) {
   LoadedMesh loaded;
   ASSERT_TRUE(load_document(sample(), geometry::MeshFormat::Off, {}, loaded).is_ok());
@@ -78,11 +85,58 @@ TEST(SessionGeometry, UndoAndRedoUpdateTheCacheLikeARebuild) {
   EXPECT_EQ(hole_ids(cache, doc).size(), 1u);
 }
 
-//! Every property of the holes \p g lists, as bytes (loops, ids, measures).
-std::vector<std::string> hole_listing(SessionGeometry& g, const rpc::MeshDocument& d) {
-  std::vector<std::string> out;
-  for (const auto& h : g.holes(d)) out.push_back(h.SerializeAsString());
-  return out;
+// Fill and undo, again and again, as an operator trying a hole does: the undo gives the cache
+// mesh's arrays back (its elements are the last added), so they do not grow until a compaction
+// (which read the whole mesh and made the holes and the search reach be found again), and each
+// fill of the hole is the same as the first.
+TEST(SessionGeometry, UndoGivesBackTheSlotsOfTheEditItUndoes) {
+  LoadedMesh loaded;
+  ASSERT_TRUE(load_document(sample(), geometry::MeshFormat::Off, {}, loaded).is_ok());
+  rpc::MeshDocument doc = loaded.document;
+  SessionGeometry cache;
+  const auto ids = hole_ids(cache, doc);
+  ASSERT_EQ(ids.size(), 3u);
+  const std::size_t vertices = cache.mesh_vertex_slots();
+  const std::size_t faces = cache.mesh_face_slots();
+  v1::MeshDelta first;
+  for (int round = 0; round < 6; ++round) {
+    v1::HoleSelection selection;
+    selection.mutable_ids()->add_ids(ids[1]);
+    auto filled = cache.fill(doc, selection, {}, {});
+    ASSERT_TRUE(filled.status.is_ok()) << filled.status.to_string();
+    ASSERT_GT(filled.delta.added_face_ids_size(), 0);
+    ASSERT_TRUE(rpc::apply_delta(doc, filled.delta).is_ok());
+    cache.commit_pending();
+    EXPECT_GT(cache.mesh_face_slots(), faces);
+    if (round == 0) {
+      first = filled.delta;
+    } else {
+      EXPECT_EQ(filled.delta.added_positions().size(), first.added_positions().size());
+      EXPECT_TRUE(std::equal(filled.delta.added_positions().begin(),
+                             filled.delta.added_positions().end(), first.added_positions().begin(),
+                             first.added_positions().end()))
+          << "round " << round;
+      EXPECT_EQ(filled.delta.added_faces_size(), first.added_faces_size());
+    }
+    const v1::MeshDelta undo = rpc::invert_delta(filled.delta, doc);
+    ASSERT_TRUE(rpc::apply_delta(doc, undo).is_ok());
+    cache.apply(undo);
+    ASSERT_TRUE(cache.cached());
+    EXPECT_LE(cache.mesh_vertex_slots(), vertices) << "round " << round;
+    EXPECT_LE(cache.mesh_face_slots(), faces) << "round " << round;
+    SessionGeometry rebuilt;
+    ASSERT_EQ(hole_listing(cache, doc), hole_listing(rebuilt, doc)) << "round " << round;
+    // A redo brings the faces back, as new elements of the cache; its undo takes them again.
+    const v1::MeshDelta redo = rpc::rebase_delta(filled.delta, doc.version);
+    ASSERT_TRUE(rpc::apply_delta(doc, redo).is_ok());
+    cache.apply(redo);
+    ASSERT_EQ(hole_ids(cache, doc).size(), 2u);
+    const v1::MeshDelta undo_again = rpc::invert_delta(redo, doc);
+    ASSERT_TRUE(rpc::apply_delta(doc, undo_again).is_ok());
+    cache.apply(undo_again);
+    ASSERT_TRUE(cache.cached());
+    EXPECT_LE(cache.mesh_face_slots(), faces) << "round " << round;
+  }
 }
 
 // Edits in a row as a session makes them: fills of random holes, undos and redos, the holes
