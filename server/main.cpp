@@ -230,6 +230,9 @@ int main(int argc, char** argv) {
                     [&] { return static_cast<double>(jobs.running()); });
   metrics.add_gauge("touchmend_journal_last_commit_seconds", "Duration of the last journal commit",
                     [&] { return store->last_commit_seconds(); });
+  metrics.add_gauge("touchmend_store_background_checkpoints",
+                    "Checkpoints of the store's write-ahead log made beside the journal commits",
+                    [&] { return static_cast<double>(store->background_checkpoints()); });
 
   asio::io_context io;
   ConnectionLimits connection_limits;

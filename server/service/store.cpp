@@ -1,8 +1,11 @@
 #include "server/service/store.h"
 
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <sqlite3.h>
 #include <sstream>
+#include <thread>
 
 namespace touchmend::service {
 
@@ -142,6 +145,85 @@ std::optional<SnapshotRow> newest_snapshot(sqlite3* db, const std::string& sessi
 
 }  // namespace
 
+//! Checkpoints the store file's write-ahead log on a thread of its own, through a connection of
+//! its own, so no journal commit waits for one. By default SQLite checkpoints in the commit that
+//! takes the log past 1,000 pages: that commit then copies 4 MB into the database file and syncs
+//! it, and on a mesh of 1.37M faces, whose fills journal 100 kB each, one fill in 40 took 5 ms
+//! longer for it (the interactive fill's p99). A passive checkpoint runs beside readers and
+//! writers (https://www.sqlite.org/wal.html, "Checkpointing"); the commit after a complete one
+//! starts the log over. Should the checkpoints fall behind a stream of commits, the commit that
+//! takes the log past kInlinePages checkpoints it itself, as before, so the log stays bounded.
+class WalCheckpointer {
+ public:
+  static constexpr int kRequestPages = 1000;  //!< SQLite's default autocheckpoint
+  static constexpr int kInlinePages = 8000;
+
+  //! Null when the file cannot be opened a second time (the store then checkpoints as SQLite
+  //! does by default).
+  static std::unique_ptr<WalCheckpointer> start(const std::filesystem::path& file) {
+    sqlite3* db = nullptr;
+    if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_FULLMUTEX,
+                        nullptr) != SQLITE_OK ||
+        !exec_ok(db, "PRAGMA synchronous=FULL")) {
+      sqlite3_close(db);
+      return nullptr;
+    }
+    return std::unique_ptr<WalCheckpointer>(new WalCheckpointer(db));
+  }
+  ~WalCheckpointer() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_one();
+    thread_.join();
+    sqlite3_close(db_);
+  }
+  WalCheckpointer(const WalCheckpointer&) = delete;
+  WalCheckpointer& operator=(const WalCheckpointer&) = delete;
+
+  //! The store connection's WAL hook: called after each commit with the pages in the log.
+  static int on_commit(void* self, sqlite3* db, const char* name, int pages) {
+    if (pages >= kInlinePages) {
+      sqlite3_wal_checkpoint_v2(db, name, SQLITE_CHECKPOINT_PASSIVE, nullptr, nullptr);
+    } else if (pages >= kRequestPages) {
+      auto* checkpointer = static_cast<WalCheckpointer*>(self);
+      {
+        std::lock_guard lock(checkpointer->mutex_);
+        checkpointer->requested_ = true;
+      }
+      checkpointer->wake_.notify_one();
+    }
+    return SQLITE_OK;
+  }
+  std::uint64_t done() const { return done_.load(std::memory_order_relaxed); }
+
+ private:
+  explicit WalCheckpointer(sqlite3* db) : db_(db), thread_([this] { run(); }) {}
+  void run() {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      wake_.wait(lock, [this] { return stop_ || requested_; });
+      if (stop_) return;
+      requested_ = false;
+      lock.unlock();
+      // A busy or failed pass is retried at the next commit's request.
+      if (sqlite3_wal_checkpoint_v2(db_, nullptr, SQLITE_CHECKPOINT_PASSIVE, nullptr, nullptr) ==
+          SQLITE_OK)
+        done_.fetch_add(1, std::memory_order_relaxed);
+      lock.lock();
+    }
+  }
+
+  sqlite3* db_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool requested_ = false;
+  bool stop_ = false;
+  std::atomic<std::uint64_t> done_{0};
+  std::thread thread_;  // last: started once the members it uses are
+};
+
 std::filesystem::path Store::snapshot_file(const std::filesystem::path& store_file) {
   return store_file.string() + "-snapshots";
 }
@@ -178,6 +260,9 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& st
       return nullptr;
     }
   }
+  store->checkpointer_ = WalCheckpointer::start(file);
+  if (store->checkpointer_)
+    sqlite3_wal_hook(db, &WalCheckpointer::on_commit, store->checkpointer_.get());
   // The snapshot file holds nothing the journal does not: a damaged one is set aside (renamed,
   // not deleted) and a new one started; if even that fails, snapshots stay in the store file.
   const std::filesystem::path snapshots = snapshot_file(file);
@@ -193,9 +278,19 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& st
   return store;
 }
 
+Store::Store(sqlite3* db) : db_(db) {}
+
 Store::~Store() {
+  if (checkpointer_) {
+    sqlite3_wal_hook(db_, nullptr, nullptr);
+    checkpointer_.reset();
+  }
   sqlite3_close(snapshot_db_);
   sqlite3_close(db_);
+}
+
+std::uint64_t Store::background_checkpoints() const {
+  return checkpointer_ ? checkpointer_->done() : 0;
 }
 
 Status Store::error(const char* what) {

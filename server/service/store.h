@@ -23,6 +23,8 @@ struct sqlite3;
 
 namespace touchmend::service {
 
+class WalCheckpointer;
+
 using rpc::Status;
 
 enum class JournalKind : int { Load = 1, Edit = 2, Undo = 3, Redo = 4 };
@@ -115,9 +117,13 @@ class Store {
 
   //! Seconds spent in the last journal commit (for /metrics).
   double last_commit_seconds() const { return last_commit_seconds_; }
+  //! Checkpoints of the store file's write-ahead log made beside the journal's commits (for
+  //! /metrics and tests; see WalCheckpointer in store.cpp). Zero when the store checkpoints in its
+  //! commits, as SQLite does by default (the checkpointer's connection could not be opened).
+  std::uint64_t background_checkpoints() const;
 
  private:
-  explicit Store(sqlite3* db) : db_(db) {}
+  explicit Store(sqlite3* db);
   Status exec(const char* sql);
   Status error(const char* what);
 
@@ -126,6 +132,7 @@ class Store {
   sqlite3* snapshot_db_ = nullptr;  //!< periodic snapshots (write_snapshot)
   std::mutex snapshot_mutex_;
   double last_commit_seconds_ = 0;
+  std::unique_ptr<WalCheckpointer> checkpointer_;
 };
 
 }  // namespace touchmend::service

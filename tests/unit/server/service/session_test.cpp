@@ -9,6 +9,7 @@
 #include <iterator>
 #include <random>
 #include <sqlite3.h>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -159,6 +160,36 @@ TEST_F(SessionTest, ADamagedSnapshotFileIsSetAside) {
   ASSERT_TRUE(store_->write_snapshot(snapshot_at(3, "E")).is_ok());
   ASSERT_TRUE(store_->latest_snapshot("s1"));
   EXPECT_EQ(store_->latest_snapshot("s1")->document, "E");
+}
+
+// The store file's write-ahead log is checkpointed by the store's own thread once it passes
+// 1,000 pages, not in the commit that takes it there (a journal append waited for that copy);
+// every entry is there after a reopen.
+TEST_F(SessionTest, TheJournalsLogIsCheckpointedBesideItsCommits) {
+  std::mt19937 random(3);
+  std::vector<std::string> payloads;
+  for (std::uint64_t version = 1; version <= 80; ++version) {
+    JournalRow row;
+    row.session_id = "s1";
+    row.version = version;
+    row.kind = JournalKind::Edit;
+    row.response.resize(100'000);
+    for (char& c : row.response) c = static_cast<char>(random());
+    payloads.push_back(row.response);
+    ASSERT_TRUE(store_->append_journal(row).is_ok());
+  }
+  // 8 MB, past 1,000 pages of 4 kB: the checkpointer has been asked at least once.
+  for (int wait = 0; wait < 1000 && store_->background_checkpoints() == 0; ++wait)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_GE(store_->background_checkpoints(), 1u);
+  store_.reset();
+  store_ = open_store();
+  const auto rows = store_->journal_after("s1", 0, 1000);
+  ASSERT_EQ(rows.size(), payloads.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i].version, i + 1);
+    EXPECT_EQ(rows[i].response, payloads[i]) << "entry " << i + 1;
+  }
 }
 
 TEST_F(SessionTest, FillUndoCyclesReuseSlotsAndRecoverIdentically) {
