@@ -287,12 +287,16 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
   // a large mesh) run on the pool beside the strand, so the session's next call does not wait
   // for them (a stream of push-down samples would otherwise see it in its tail).
   // A snapshot costs the document's size, so it waits for as much journal as it saves: 64
-  // entries (SERVICE.md §7), and deltas worth a quarter of the document or 16 x 64 entries
-  // (single-vertex push-down samples on a large mesh would otherwise snapshot it every 64).
+  // entries (SERVICE.md §7), and deltas worth the document or 16 x 64 entries (single-vertex
+  // push-down samples on a large mesh would otherwise snapshot it every 64). Recovery then reads
+  // at most about twice the document. With a quarter of the document, fills on a mesh of 1.37M
+  // faces snapshotted it every 190 fills and undos, and the snapshot's copy and its serialising
+  // beside the next fills (on the same two cores) were their p99 and max (40 ms against a p50 of
+  // 14).
   ++since_snapshot_;
   delta_bytes_since_snapshot_ += delta.ByteSizeLong();
   const std::size_t document_bytes = 24 * document_.positions.size() + 12 * document_.faces.size();
-  const bool worth_it = delta_bytes_since_snapshot_ >= document_bytes / 4 ||
+  const bool worth_it = delta_bytes_since_snapshot_ >= document_bytes ||
                         since_snapshot_ >= 16 * options_.snapshot_every;
   if (since_snapshot_ >= options_.snapshot_every && worth_it && !snapshot_queued_) {
     snapshot_queued_ = true;
