@@ -193,6 +193,8 @@ void for_each_face_near(const Mesh& mesh, const Box3& box, const SearchReach& re
     TrianglePoints t;
     std::array<int, 3> ids;
     face_corners(mesh, g, t, ids);
+    // A listed face that a move made short again was visited through its corners above.
+    if (longest_sqr_edge(t) <= reach_sqr) continue;
     if (!visit(g, t, ids)) return;
   }
 }
@@ -240,15 +242,18 @@ void SearchReach::note_moved(const Mesh& mesh, VertexHandle v) {
     grid = VertexGrid{};
     scanned = 0;
   }
-  // A face the move stretched past the reach is found through its corners no more: listed (once;
-  // a face long before the move is already on the list).
+  // A face the move stretched past the reach is found through its corners no more: listed (once).
+  // A face long before the move is on the list already, with the box it had: that box is made
+  // the face's new one (a search would miss the face where it has moved to).
   const double reach_sqr = longest_edge * longest_edge;
   for (const FaceHandle f : mesh.vf_range(v)) {
     TrianglePoints t;
     std::array<int, 3> ids;
     face_corners(mesh, f, t, ids);
-    if (longest_sqr_edge(t) > reach_sqr &&
-        std::find(long_faces.begin(), long_faces.end(), f) == long_faces.end()) {
+    const auto listed = std::find(long_faces.begin(), long_faces.end(), f);
+    if (listed != long_faces.end()) {
+      long_boxes[static_cast<std::size_t>(listed - long_faces.begin())] = triangle_box(t);
+    } else if (longest_sqr_edge(t) > reach_sqr) {
       long_faces.push_back(f);
       long_boxes.push_back(triangle_box(t));
     }

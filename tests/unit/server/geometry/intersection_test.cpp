@@ -231,6 +231,14 @@ TEST(MeshIntersections, SearchReachKeptThroughMovesFindsWhatAScanFinds) {
       moved_to.push_back(mesh.point(v));
     }
     EXPECT_TRUE(reach.grid.empty());
+    // A corner of a face already long moves again, far: its listing must follow it.
+    if (reach.long_faces.size() > listed) {
+      const FaceHandle f = reach.long_faces.back();
+      const VertexHandle v = *mesh.fv_range(f).begin();
+      mesh.set_point(v, mesh.point(v) + Vec3(0.5, -0.5, 0.5));
+      reach.note_moved(mesh, v);
+      moved_to.push_back(mesh.point(v));
+    }
     // A fill's new vertices and faces, off the sphere: every other round they are boxed as runs
     // (box_new_vertices), else read one by one past the runs.
     const Vec3 base(unit(random), unit(random), unit(random));
