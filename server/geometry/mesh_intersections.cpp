@@ -260,6 +260,32 @@ void SearchReach::note_moved(const Mesh& mesh, VertexHandle v) {
   }
 }
 
+void SearchReach::note_reshaped(const Mesh& mesh, std::span<const FaceHandle> faces) {
+  const double reach_sqr = longest_edge * longest_edge;
+  std::vector<std::pair<FaceHandle, Box3>> long_now;
+  for (const FaceHandle f : faces) {
+    if (!f.is_valid() || mesh.status(f).deleted()) continue;
+    TrianglePoints t;
+    std::array<int, 3> ids;
+    face_corners(mesh, f, t, ids);
+    // A listed face that is short now keeps its old box: the searches visit it through its
+    // corners and pass over it on the list.
+    if (longest_sqr_edge(t) > reach_sqr) long_now.emplace_back(f, triangle_box(t));
+  }
+  if (long_now.empty()) return;
+  LocalMap<std::size_t> position(2 * long_faces.size() + 16);
+  for (std::size_t i = 0; i < long_faces.size(); ++i) position[long_faces[i].idx()] = i;
+  for (const auto& [f, box] : long_now) {
+    if (const std::size_t* i = position.find(f.idx())) {
+      long_boxes[*i] = box;
+    } else {
+      position[f.idx()] = long_faces.size();
+      long_faces.push_back(f);
+      long_boxes.push_back(box);
+    }
+  }
+}
+
 void SearchReach::box_new_vertices(const Mesh& mesh) {
   const std::size_t n = mesh.n_vertices();
   if (n <= blocks_below) return;

@@ -91,6 +91,10 @@ struct SearchReach {
   //! take its new position, a filed grid is dropped (the searches file it again), and its faces
   //! the move made long are listed.
   void note_moved(const Mesh& mesh, VertexHandle v);
+  //! Keeps the reach true after \p faces were added or changed in place (an edge flip or split
+  //! gives a face other corners) outside a fill: the long ones are listed once, with the boxes
+  //! they have now. Their vertices must be new (past blocks_below) or noted by note_moved.
+  void note_reshaped(const Mesh& mesh, std::span<const FaceHandle> faces);
   //! Boxes the vertices added since the runs were boxed (from blocks_below on), so the searches
   //! pass over them run by run instead of reading each: for a reach kept across many fills.
   //! They must not move afterwards (a fill moves only the vertices it adds, while it adds them).

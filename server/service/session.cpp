@@ -455,8 +455,8 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
                            v1::SharpEdgeResponse& response) {
   if (document_.faces.empty())
     return {StatusCode::FailedPrecondition, "the session has no mesh loaded"};
-  const auto edit = [&](SessionGeometry::FillOutcome outcome, const std::string& description,
-                        bool invalidate_cache) -> Status {
+  const auto edit = [&](SessionGeometry::FillOutcome outcome,
+                        const std::string& description) -> Status {
     if (!outcome.status.is_ok()) {
       geometry_.invalidate();
       return outcome.status;
@@ -467,8 +467,6 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
             commit_cache_edit(std::move(outcome.delta), principal, request.request_id(), committed);
         !s.is_ok())
       return s;
-    // Splits and flips change faces in place: rebuild the cache from the document next time.
-    if (invalidate_cache) geometry_.invalidate();
     response.set_version(committed.version());
     *response.mutable_delta() = committed.delta();
     return {};
@@ -507,7 +505,7 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
       if (sharp_tool_->snapped) return {StatusCode::FailedPrecondition, "already snapped"};
       SharpEdgeTool tool = *sharp_tool_;
       if (Status s = edit(geometry_.sharp_edge_snap(document_, tool, current_extent()),
-                          "sharp edge: snap onto the guiding surface", true);
+                          "sharp edge: snap onto the guiding surface");
           !s.is_ok())
         return s;
       sharp_tool_ = std::move(tool);
@@ -521,7 +519,7 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
       SharpEdgeTool tool = *sharp_tool_;
       SessionGeometry::PushReport report;
       const Status s = edit(geometry_.sharp_edge_push(document_, tool, request.push(), report),
-                            "sharp edge: push", false);
+                            "sharp edge: push");
       response.set_at_limit(report.at_limit);
       response.set_push_samples(report.samples);
       if (!s.is_ok()) return s;
@@ -535,9 +533,8 @@ Status Session::sharp_edge(const v1::SharpEdgeRequest& request, const std::strin
       if (!to_push_finish(request.finish(), finish))
         return {StatusCode::InvalidArgument, "unknown finish " + std::to_string(request.finish())};
       SharpEdgeTool tool = *sharp_tool_;
-      if (Status s =
-              edit(geometry_.sharp_edge_smooth(document_, tool, finish),
-                   std::string("sharp edge: finish (") + geometry::to_string(finish) + ")", false);
+      if (Status s = edit(geometry_.sharp_edge_smooth(document_, tool, finish),
+                          std::string("sharp edge: finish (") + geometry::to_string(finish) + ")");
           !s.is_ok())
         return s;
       fill_preview(tool, response);

@@ -53,6 +53,8 @@ class Session : public std::enable_shared_from_this<Session> {
   Status recover();
   v1::SessionInfo info() const;
   const rpc::MeshDocument& document() const { return document_; }
+  //! The session's mesh cache (for tests and diagnostics).
+  const SessionGeometry& geometry() const { return geometry_; }
   Status load(LoadedMesh mesh, const std::string& mesh_name, const std::string& principal,
               v1::LoadMeshResponse& response);
   Status fill(const v1::FillHolesRequest& request, const std::string& principal,

@@ -221,6 +221,60 @@ void SessionGeometry::sync(const rpc::MeshDocument& document) {
   vertices_at_rebuild_ = mesh_.n_vertices();
 }
 
+std::string SessionGeometry::mirror_mismatch(const rpc::MeshDocument& document) const {
+  if (!valid_) return "no cache";
+  if (version_ != document.version)
+    return fmt::format("cache of version {}, document {}", version_, document.version);
+  const auto mapped = [](const std::vector<std::uint32_t>& map, std::size_t i) {
+    return i < map.size() ? map[i] : kNoId;
+  };
+  for (std::size_t v = 0; v < document.positions.size(); ++v) {
+    const std::uint32_t m = mapped(mesh_of_doc_vertex_, v);
+    if (m == kNoId) {
+      if (document.vertex_alive[v]) return fmt::format("alive vertex {} not in the cache", v);
+      continue;
+    }
+    const VertexHandle h(static_cast<int>(m));
+    if (m >= mesh_.n_vertices() || mesh_.status(h).deleted() || mapped(doc_of_mesh_vertex_, m) != v)
+      return fmt::format("vertex {} maps to mesh vertex {}, which is not its", v, m);
+    if (!document.vertex_alive[v]) {
+      if (!mesh_.is_isolated(h)) return fmt::format("dead vertex {} has faces in the cache", v);
+      continue;
+    }
+    const auto& p = document.positions[v];
+    if (mesh_.point(h) != geometry::Vec3(p[0], p[1], p[2]))
+      return fmt::format("vertex {} is elsewhere in the cache", v);
+  }
+  std::size_t mirrored = 0;
+  for (std::size_t f = 0; f < document.faces.size(); ++f) {
+    const std::uint32_t m = mapped(mesh_of_doc_face_, f);
+    if (!document.face_alive[f]) {
+      if (m != kNoId) return fmt::format("dead face {} maps to mesh face {}", f, m);
+      continue;
+    }
+    const FaceHandle h(static_cast<int>(m));
+    if (m == kNoId || m >= mesh_.n_faces() || mesh_.status(h).deleted() ||
+        mapped(doc_of_mesh_face_, m) != f)
+      return fmt::format("alive face {} has no face of its own in the cache", f);
+    std::array<std::uint32_t, 3> corners{};
+    int k = 0;
+    for (const VertexHandle v : mesh_.fv_range(h))
+      corners[static_cast<std::size_t>(k++)] = mapped(doc_of_mesh_vertex_, v.idx());
+    const auto& want = document.faces[f];
+    const bool same = corners == want ||
+                      corners == std::array<std::uint32_t, 3>{want[1], want[2], want[0]} ||
+                      corners == std::array<std::uint32_t, 3>{want[2], want[0], want[1]};
+    if (!same) return fmt::format("face {} has other corners in the cache", f);
+    ++mirrored;
+  }
+  std::size_t live = 0;
+  for (std::size_t f = 0; f < mesh_.n_faces(); ++f)
+    live += mesh_.status(FaceHandle(static_cast<int>(f))).deleted() ? 0 : 1;
+  if (live != mirrored)
+    return fmt::format("the cache has {} live faces, the document {}", live, mirrored);
+  return {};
+}
+
 void SessionGeometry::cut_deleted_tail() {
   // An undo deletes what the edit it undoes added, at the end of the arrays: dropping it there
   // costs what it is, where a compaction reads the whole mesh and makes the holes and the search
@@ -315,6 +369,26 @@ void SessionGeometry::note_moved(VertexHandle v) {
   touched_.push_back(v);
   for (const VertexHandle w : mesh_.vv_range(v)) touched_.push_back(w);
   if (reach_) reach_->note_moved(mesh_, v);
+}
+
+void SessionGeometry::note_edit(std::span<const FaceHandle> faces,
+                                std::span<const VertexHandle> moved) {
+  for (const VertexHandle v : moved) note_moved(v);
+  for (const FaceHandle f : faces)
+    if (f.is_valid() && !mesh_.status(f).deleted())
+      for (const VertexHandle v : mesh_.fv_range(f)) touched_.push_back(v);
+  if (reach_) reach_->note_reshaped(mesh_, faces);
+  bound_touched();
+}
+
+void SessionGeometry::forget_bridged(std::span<const FaceHandle> faces) {
+  // A bridge adds faces and vertices only (its delta has no moves), so the reach stays true once
+  // its long faces are listed. The holes are searched again: its attempts that were taken out
+  // again may have relinked loops that no face it kept touches.
+  holes_.reset();
+  touched_.clear();
+  if (reach_) reach_->note_reshaped(mesh_, faces);
+  bound_touched();
 }
 
 geometry::HoleSearchResult& SessionGeometry::search() {
@@ -521,6 +595,7 @@ v1::MeshDelta SessionGeometry::edit_delta(const rpc::MeshDocument& document,
   pending_face_map_.clear();
   pending_removed_faces_.clear();
   pending_removed_vertices_.clear();
+  pending_replaced_faces_.clear();
   // Slot allocation: dead slots from first_free on (reused), then the end of the arrays.
   std::uint32_t next_vertex = std::min<std::uint32_t>(
       first_free.vertices, static_cast<std::uint32_t>(document.positions.size()));
@@ -594,7 +669,7 @@ SessionGeometry::FillOutcome SessionGeometry::stitch(const rpc::MeshDocument& do
     outcome.status = {StatusCode::FailedPrecondition, "stitch refused: " + r.reason};
     return outcome;
   }
-  forget_search();
+  note_edit(std::span<const FaceHandle>(&r.face, 1), {});
   outcome.delta = edit_delta(document, {}, {r.face}, first_free);
   return outcome;
 }
@@ -690,7 +765,10 @@ SessionGeometry::FillOutcome SessionGeometry::sharpen(const rpc::MeshDocument& d
   const geometry::SharpenResult r =
       one_curve ? geometry::sharpen_hole(mesh_, *hole, picked.curves[0], options)
                 : geometry::sharpen_creases(mesh_, *hole, picked, options);
-  forget_search();
+  // As a fill: what changed is inside the hole's loop (the delta says no more), the patch's
+  // vertices are new ones (the reach reads them one by one), its long faces are listed.
+  touched_.insert(touched_.end(), hole->loop.begin(), hole->loop.end());
+  note_edit(r.ok ? std::span<const FaceHandle>(r.patch) : std::span<const FaceHandle>(), {});
   if (!r.ok) {
     outcome.status = {StatusCode::FailedPrecondition, "sharpen refused: " + r.failure};
     return outcome;
@@ -791,13 +869,14 @@ SessionGeometry::FillOutcome SessionGeometry::bridge(const rpc::MeshDocument& do
         return outcome;
       }
     const geometry::GapBridgeResult r = geometry::bridge_gap(mesh_, first, second, fill);
-    forget_search();
     if (r.stitches.empty()) {
+      forget_bridged({});
       outcome.status = {StatusCode::FailedPrecondition, "bridge refused: " + r.reason};
       return outcome;
     }
     faces = r.stitches;
     for (const auto& f : r.fills) collect(f);
+    forget_bridged(faces);
     summary = r.ok ? "gap bridged: a stitch at each end, the loop between them filled"
                    : "gap ends stitched; " + r.reason;
     outcome.delta = edit_delta(document, std::move(vertices), std::move(faces), first_free);
@@ -839,7 +918,7 @@ SessionGeometry::FillOutcome SessionGeometry::bridge(const rpc::MeshDocument& do
     collect(f);
     leftovers_filled += f.filled ? 1 : 0;
   }
-  forget_search();
+  forget_bridged(faces);
   summary = fmt::format("bridged {} of {} gaps{}{}{}", bridged, selected.size(),
                         all.leftover_fills.empty()
                             ? ""
@@ -1060,7 +1139,6 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_snap(const rpc::MeshDoc
   // Patch vertices and their positions before, to report the moves.
   const std::map<int, geometry::Vec3> before = patch_positions(*state);
   const geometry::SnapReport snap = geometry::snap_to_guide(mesh_, *state);
-  forget_search();
   if (state->on_guide.empty()) {
     outcome.status = {StatusCode::FailedPrecondition,
                       "the curve does not cross the patch seen along its normal: pick P2 and P3 "
@@ -1073,8 +1151,17 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_snap(const rpc::MeshDoc
   std::vector<FaceHandle> faces;
   for (const FaceHandle f : state->patch)
     if (!mesh_.status(f).deleted()) faces.push_back(f);
+  // Everything the snap changed is in the patch (the delta says no more): its faces, split and
+  // flipped in place, and its vertices, moved or new.
+  {
+    std::vector<VertexHandle> moved = snap.new_vertices;
+    for (const auto& [index, old] : before)
+      if (mesh_.point(VertexHandle(index)) != old) moved.push_back(VertexHandle(index));
+    note_edit(faces, moved);
+  }
   outcome.delta = edit_delta(document, snap.new_vertices, faces, first_free);
   for (const std::uint32_t f : tool.patch_faces) outcome.delta.add_removed_faces(f);
+  pending_replaced_faces_.assign(tool.patch_faces.begin(), tool.patch_faces.end());
   for (const auto& [index, old] : before) {
     const VertexHandle v(index);
     if (mesh_.point(v) == old) continue;
@@ -1187,14 +1274,15 @@ SessionGeometry::FillOutcome SessionGeometry::sharp_edge_smooth(const rpc::MeshD
   // A finish that fails or folds the patch into the mesh is undone there and refused here.
   const geometry::PushFinishReport finished =
       geometry::finish_push(mesh_, *state, finish, /*check_intersections=*/true);
-  forget_search();
+  // The finish only moves the patch's free vertices (a refused one puts them back).
+  std::vector<VertexHandle> moved;
+  for (const auto& [index, old] : before)
+    if (mesh_.point(VertexHandle(index)) != old) moved.push_back(VertexHandle(index));
+  note_edit({}, moved);
   if (!finished.undone.empty()) {
     outcome.status = {StatusCode::FailedPrecondition, finished.undone};
     return outcome;
   }
-  std::vector<VertexHandle> moved;
-  for (const auto& [index, old] : before)
-    if (mesh_.point(VertexHandle(index)) != old) moved.push_back(VertexHandle(index));
   outcome.delta = move_delta(document, moved);
   pending_vertex_map_.clear();
   pending_face_map_.clear();
@@ -1217,6 +1305,15 @@ void SessionGeometry::commit_pending() {
       if (mesh_.is_isolated(retired)) mesh_.status(retired).set_deleted(true);
     }
     mesh_of_doc_vertex_[doc_id] = mesh_index;
+  }
+  // Document faces the edit replaced by faces it changed in place: their mesh faces take the new
+  // slots below (or were deleted).
+  for (const std::uint32_t doc : pending_replaced_faces_) {
+    if (doc >= mesh_of_doc_face_.size()) continue;
+    if (const std::uint32_t mf = mesh_of_doc_face_[doc];
+        mf < doc_of_mesh_face_.size() && doc_of_mesh_face_[mf] == doc)
+      doc_of_mesh_face_[mf] = kNoId;
+    mesh_of_doc_face_[doc] = kNoId;
   }
   for (std::size_t i = 0; i + 1 < pending_face_map_.size(); i += 2) {
     const std::uint32_t doc_id = pending_face_map_[i + 1];
@@ -1241,6 +1338,7 @@ void SessionGeometry::commit_pending() {
   pending_face_map_.clear();
   pending_removed_faces_.clear();
   pending_removed_vertices_.clear();
+  pending_replaced_faces_.clear();
   version_ = pending_version_;
   bound_growth();
 }
@@ -1250,6 +1348,7 @@ void SessionGeometry::discard_pending() {
   pending_face_map_.clear();
   pending_removed_faces_.clear();
   pending_removed_vertices_.clear();
+  pending_replaced_faces_.clear();
   // The attempts' elements are deleted in the cache: they map to no document slot.
   doc_of_mesh_vertex_.resize(mesh_.n_vertices(), kNoId);
   doc_of_mesh_face_.resize(mesh_.n_faces(), kNoId);

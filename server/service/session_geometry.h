@@ -17,6 +17,7 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -181,6 +182,15 @@ class SessionGeometry {
   //! The cache mesh's vertex and face slots, deleted ones included (for tests and diagnostics).
   std::size_t mesh_vertex_slots() const { return mesh_.n_vertices(); }
   std::size_t mesh_face_slots() const { return mesh_.n_faces(); }
+  //! Whether the hole search and the search reach are kept for the next request (else it makes
+  //! them again from the whole mesh); for tests and diagnostics.
+  bool holes_kept() const { return holes_.has_value(); }
+  //! Why the cache does not mirror \p document (its version), or empty when it does: every alive
+  //! face maps to a live mesh face with the same corners and back, no other mesh face is live,
+  //! every alive vertex maps to a mesh vertex at its position and back, a dead one at most to an
+  //! isolated one. One pass over both; for tests and diagnostics.
+  std::string mirror_mismatch(const rpc::MeshDocument& document) const;
+  bool reach_kept() const { return reach_.has_value(); }
 
  private:
   void sync(const rpc::MeshDocument& document);
@@ -195,6 +205,13 @@ class SessionGeometry {
   void forget_search();
   //! Keeps the holes' update and the search reach true after \p v moved.
   void note_moved(geometry::VertexHandle v);
+  //! The same after an edit other than a fill, undo or redo, made here: \p faces added or
+  //! changed in place (their corners are touched, the long ones listed on the reach), \p moved
+  //! the vertices it moved. Everything the edit changed must be in these (its delta's content).
+  void note_edit(std::span<const geometry::FaceHandle> faces,
+                 std::span<const geometry::VertexHandle> moved);
+  //! After a bridge that added \p faces: keeps the search reach, forgets the holes.
+  void forget_bridged(std::span<const geometry::FaceHandle> faces);
   v1::Hole hole_to_proto(const geometry::Hole& hole) const;
   //! The smallest document vertex id on the hole's boundary: its stable id on the wire.
   std::uint32_t doc_hole_id(const geometry::Hole& hole) const;
@@ -224,6 +241,9 @@ class SessionGeometry {
   std::vector<std::uint32_t> pending_face_map_;
   std::vector<std::uint32_t> pending_removed_faces_;  // mesh indices the edit deleted
   std::vector<std::uint32_t> pending_removed_vertices_;
+  //! Document face ids the edit removed while it changed their mesh faces in place (the snap's
+  //! splits and flips): those mesh faces take the edit's new ids.
+  std::vector<std::uint32_t> pending_replaced_faces_;
   std::uint64_t pending_version_ = 0;
   std::optional<geometry::HoleSearchResult> holes_;
   //! Vertices the edits since holes_ was found touched (geometry::update_holes): the next

@@ -122,6 +122,7 @@ TEST(SessionGeometry, UndoGivesBackTheSlotsOfTheEditItUndoes) {
     ASSERT_TRUE(rpc::apply_delta(doc, undo).is_ok());
     cache.apply(undo);
     ASSERT_TRUE(cache.cached());
+    ASSERT_EQ(cache.mirror_mismatch(doc), "") << "round " << round;
     EXPECT_LE(cache.mesh_vertex_slots(), vertices) << "round " << round;
     EXPECT_LE(cache.mesh_face_slots(), faces) << "round " << round;
     SessionGeometry rebuilt;
@@ -198,6 +199,7 @@ TEST(SessionGeometry, HolesAfterEditsInARowAreThoseOfARebuild) {
       ++fills;
     }
     ASSERT_TRUE(cache.cached()) << "step " << step;
+    ASSERT_EQ(cache.mirror_mismatch(doc), "") << "step " << step;
     SessionGeometry rebuilt;
     ASSERT_EQ(hole_listing(cache, doc), hole_listing(rebuilt, doc)) << "step " << step;
     EXPECT_NE(hole_listing(cache, doc), listing) << "step " << step << ": the edit changed no hole";
