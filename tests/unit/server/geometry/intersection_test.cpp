@@ -377,6 +377,63 @@ TEST(MeshIntersections, SearchReachCutBackWithTheMeshFindsWhatAScanFinds) {
   check(last_points, "with the grid filed again");
 }
 
+// Faces an edit adds or changes in place (flips, splits) outside a fill are noted on a kept
+// reach with note_reshaped: the long ones are listed once, with their boxes as they are now, and
+// the searches find what a scan finds.
+TEST(MeshIntersections, SearchReachNotesReshapedFaces) {
+  Mesh mesh = build_mesh(testing::uv_sphere(1, 64, 36)).mesh;
+  SearchReach reach = make_search_reach(mesh);
+  const auto scan = [&](const Box3& box) { return faces_meeting_by_scan(mesh, box); };
+  const auto searched = [&](const Box3& box) { return faces_found(mesh, box, reach); };
+  // A strip of new faces off the sphere, every other one long.
+  std::vector<VertexHandle> low, high;
+  for (int k = 0; k < 12; ++k) {
+    low.push_back(mesh.add_vertex(Vec3(1.2 + 0.02 * k, 0, 0)));
+    high.push_back(mesh.add_vertex(Vec3(1.2 + 0.02 * k, 0.02 + (k % 2) * 0.8, 0.1)));
+  }
+  std::vector<FaceHandle> strip;
+  for (int k = 0; k + 1 < 12; ++k) {
+    strip.push_back(mesh.add_face(low[k], low[k + 1], high[k + 1]));
+    strip.push_back(mesh.add_face(low[k], high[k + 1], high[k]));
+  }
+  const std::size_t listed = reach.long_faces.size();
+  reach.note_reshaped(mesh, strip);
+  EXPECT_GT(reach.long_faces.size(), listed);
+  const std::size_t after_strip = reach.long_faces.size();
+  reach.note_reshaped(mesh, strip);  // again: nothing listed twice
+  EXPECT_EQ(reach.long_faces.size(), after_strip);
+  // Flip the strip's inner edges: the faces change corners in place.
+  for (int k = 0; k + 1 < 12; ++k) {
+    const HalfedgeHandle h = mesh.find_halfedge(low[k], high[k + 1]);
+    ASSERT_TRUE(h.is_valid());
+    ASSERT_TRUE(mesh.is_flip_ok(mesh.edge_handle(h)));
+    mesh.flip(mesh.edge_handle(h));
+  }
+  reach.note_reshaped(mesh, strip);
+  // Split a long edge at a point far off it: the faces beside it take that corner in place.
+  const HalfedgeHandle tall = mesh.find_halfedge(low[3], high[3]);
+  ASSERT_TRUE(tall.is_valid());
+  const Vec3 off = 0.5 * (mesh.point(low[3]) + mesh.point(high[3])) + Vec3(0, 0, 0.7);
+  const VertexHandle apex = mesh.add_vertex(off);
+  mesh.split(mesh.edge_handle(tall), apex);
+  std::vector<FaceHandle> around(mesh.vf_range(apex).begin(), mesh.vf_range(apex).end());
+  reach.note_reshaped(mesh, around);
+  std::vector<FaceHandle> listed_faces = reach.long_faces;
+  std::sort(listed_faces.begin(), listed_faces.end());
+  EXPECT_EQ(std::adjacent_find(listed_faces.begin(), listed_faces.end()), listed_faces.end());
+  std::mt19937 random(9);
+  std::uniform_real_distribution<> unit(-1, 1);
+  for (int i = 0; i < 300; ++i) {
+    const Vec3 c = i < 100   ? Vec3(1.2 + 0.25 * (unit(random) + 1), 0.4 * (unit(random) + 1), 0.1)
+                   : i < 200 ? off + 0.3 * Vec3(unit(random), unit(random), unit(random))
+                             : Vec3(unit(random) * 1.3, unit(random) * 1.3, unit(random) * 1.3);
+    const double size = 0.002 * (1 + i % 20);
+    const Box3 box(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
+                   Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
+    ASSERT_EQ(searched(box), scan(box)) << "box " << i;
+  }
+}
+
 // The reach's grid of vertices and list of long faces must find exactly what a scan of every face
 // finds: on a mesh large enough to get a grid (filed by the searches once they have scanned the
 // mesh a few times), with long faces beside fine ones, and after new vertices and faces were
