@@ -515,7 +515,7 @@ TEST(Station, ReplayedSharpEdgePicksPushesAndSmoothsACubeEdge) {
   net::RepairClient check(s.server.connect());
   rpc::MeshDocument doc;
   ASSERT_TRUE(check.download_document(station.session_id(), doc).is_ok());
-  EXPECT_TRUE(wait_until([&] { return station.version() >= doc.version; }));  // the last delta
+  EXPECT_TRUE(wait_until([&] { return station.version() >= doc.version; }, 30s));  // the last delta
   EXPECT_TRUE(station.document() == doc);
   // The pushes brought vertices of the rounded patch up to the edge; before, the faired
   // patch's vertices under the edge were far below it. (The picks are proxy positions, a
