@@ -192,6 +192,12 @@ std::vector<int> faces_meeting_by_scan(const Mesh& mesh, const Box3& box) {
 }
 
 //! The faces a search with \p reach finds for \p box, in index order.
+//! The axis-aligned cube of half-side \p size around \p c.
+Box3 box_around(const Vec3& c, double size) {
+  return Box3(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
+              Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
+}
+
 std::vector<int> faces_found(const Mesh& mesh, const Box3& box, const SearchReach& reach) {
   std::vector<int> out;
   for (const FaceHandle f : faces_in_box(mesh, box, reach)) out.push_back(f.idx());
@@ -209,17 +215,13 @@ TEST(MeshIntersections, SearchReachKeptThroughMovesFindsWhatAScanFinds) {
   ASSERT_GT(reach.grid_below, 0u);
   const auto scan = [&](const Box3& box) { return faces_meeting_by_scan(mesh, box); };
   const auto searched = [&](const Box3& box) { return faces_found(mesh, box, reach); };
-  const auto box_at = [](const Vec3& c, double size) {
-    return Box3(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
-                Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
-  };
   std::mt19937 random(5);
   std::uniform_real_distribution<> unit(-1, 1);
   const std::size_t listed = reach.long_faces.size();
   for (int round = 0; round < 6; ++round) {
     // File the grid (as if the searches had read as much as filing costs), then move.
     reach.scanned = SearchReach::kScansBeforeFiling * reach.grid_below;
-    searched(box_at(Vec3(0, 0, 1), 0.01));
+    searched(box_around(Vec3(0, 0, 1), 0.01));
     EXPECT_FALSE(reach.grid.empty());
     std::vector<Vec3> moved_to;
     for (int k = 0; k < 8; ++k) {
@@ -264,12 +266,12 @@ TEST(MeshIntersections, SearchReachKeptThroughMovesFindsWhatAScanFinds) {
     }
     for (const Vec3& p : moved_to)
       for (const double size : {0.001, 0.05, 0.3}) {
-        const Box3 box = box_at(p, size);
+        const Box3 box = box_around(p, size);
         ASSERT_EQ(searched(box), scan(box)) << "round " << round;
       }
     for (int i = 0; i < 40; ++i) {
       const Vec3 c(unit(random) * 1.3, unit(random) * 1.3, unit(random) * 1.3);
-      const Box3 box = box_at(c, 0.01 * (1 + i));
+      const Box3 box = box_around(c, 0.01 * (1 + i));
       ASSERT_EQ(searched(box), scan(box)) << "round " << round << ", box " << i;
     }
   }
@@ -288,10 +290,6 @@ TEST(MeshIntersections, SearchReachCutBackWithTheMeshFindsWhatAScanFinds) {
   ASSERT_GT(reach.grid_below, 0u);
   const auto scan = [&](const Box3& box) { return faces_meeting_by_scan(mesh, box); };
   const auto searched = [&](const Box3& box) { return faces_found(mesh, box, reach); };
-  const auto box_at = [](const Vec3& c, double size) {
-    return Box3(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
-                Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
-  };
   std::mt19937 random(7);
   std::uniform_real_distribution<> unit(-1, 1);
   // A fan of new faces round a hub near \p at, long ones among them; filed and boxed.
@@ -319,18 +317,18 @@ TEST(MeshIntersections, SearchReachCutBackWithTheMeshFindsWhatAScanFinds) {
     }
     for (const Vec3& p : near)
       for (const double size : {0.001, 0.05, 0.3}) {
-        const Box3 box = box_at(p, size);
+        const Box3 box = box_around(p, size);
         ASSERT_EQ(searched(box), scan(box)) << what;
       }
     for (int i = 0; i < 40; ++i) {
       const Vec3 c(unit(random) * 1.3, unit(random) * 1.3, unit(random) * 1.3);
-      const Box3 box = box_at(c, 0.01 * (1 + i));
+      const Box3 box = box_around(c, 0.01 * (1 + i));
       ASSERT_EQ(searched(box), scan(box)) << what << ", box " << i;
     }
   };
   const auto file_grid = [&] {
     reach.scanned = SearchReach::kScansBeforeFiling * reach.grid_below;
-    searched(box_at(Vec3(0, 0, 1), 0.01));
+    searched(box_around(Vec3(0, 0, 1), 0.01));
     ASSERT_FALSE(reach.grid.empty());
   };
 
@@ -427,9 +425,7 @@ TEST(MeshIntersections, SearchReachNotesReshapedFaces) {
     const Vec3 c = i < 100   ? Vec3(1.2 + 0.25 * (unit(random) + 1), 0.4 * (unit(random) + 1), 0.1)
                    : i < 200 ? off + 0.3 * Vec3(unit(random), unit(random), unit(random))
                              : Vec3(unit(random) * 1.3, unit(random) * 1.3, unit(random) * 1.3);
-    const double size = 0.002 * (1 + i % 20);
-    const Box3 box(Eigen::Vector3d(c[0] - size, c[1] - size, c[2] - size),
-                   Eigen::Vector3d(c[0] + size, c[1] + size, c[2] + size));
+    const Box3 box = box_around(c, 0.002 * (1 + i % 20));
     ASSERT_EQ(searched(box), scan(box)) << "box " << i;
   }
 }

@@ -20,6 +20,13 @@ std::string sample() {
   return bytes;
 }
 
+//! The sample (Spot with three holes) as a session's document.
+rpc::MeshDocument sample_document() {
+  LoadedMesh loaded;
+  EXPECT_TRUE(load_document(sample(), geometry::MeshFormat::Off, {}, loaded).is_ok());
+  return loaded.document;
+}
+
 std::vector<std::uint32_t> hole_ids(SessionGeometry& g, const rpc::MeshDocument& d) {
   std::vector<std::uint32_t> ids;
   for (const auto& h : g.holes(d)) ids.push_back(h.id());
@@ -34,9 +41,8 @@ std::vector<std::string> hole_listing(SessionGeometry& g, const rpc::MeshDocumen
 }
 
 TEST(SessionGeometry, UndoAndRedoUpdateTheCacheLikeARebuild) {
-  LoadedMesh loaded;
-  ASSERT_TRUE(load_document(sample(), geometry::MeshFormat::Off, {}, loaded).is_ok());
-  rpc::MeshDocument doc = loaded.document;
+  rpc::MeshDocument doc = sample_document();
+  ASSERT_FALSE(doc.faces.empty());
   SessionGeometry cache;
   const auto before = hole_ids(cache, doc);
   ASSERT_EQ(before.size(), 3u);
@@ -90,9 +96,8 @@ TEST(SessionGeometry, UndoAndRedoUpdateTheCacheLikeARebuild) {
 // (which read the whole mesh and made the holes and the search reach be found again), and each
 // fill of the hole is the same as the first.
 TEST(SessionGeometry, UndoGivesBackTheSlotsOfTheEditItUndoes) {
-  LoadedMesh loaded;
-  ASSERT_TRUE(load_document(sample(), geometry::MeshFormat::Off, {}, loaded).is_ok());
-  rpc::MeshDocument doc = loaded.document;
+  rpc::MeshDocument doc = sample_document();
+  ASSERT_FALSE(doc.faces.empty());
   SessionGeometry cache;
   const auto ids = hole_ids(cache, doc);
   ASSERT_EQ(ids.size(), 3u);
