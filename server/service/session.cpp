@@ -122,6 +122,7 @@ Status Session::recover() {
   }
   version_.store(document_.version, std::memory_order_release);
   geometry_.invalidate();
+  count_alive();
   refresh_summary();
   return {};
 }
@@ -136,6 +137,25 @@ v1::SessionInfo Session::summary() const {
     copy.set_created_unix_ms(row_.created_ms);
   }
   return copy;
+}
+
+void Session::count_alive() {
+  alive_vertices_ = document_.alive_vertices();
+  alive_faces_ = document_.alive_faces();
+}
+
+void Session::count_alive(const v1::MeshDelta& applied, int sign) {
+  // apply_delta checked it: a removed element was alive, an added one dead or appended (or
+  // removed by the same delta), so each changes the count by one.
+  const auto net = [sign](int added, int removed) {
+    return static_cast<std::ptrdiff_t>(sign) * (static_cast<std::ptrdiff_t>(added) - removed);
+  };
+  alive_vertices_ = static_cast<std::size_t>(
+      static_cast<std::ptrdiff_t>(alive_vertices_) +
+      net(applied.added_vertex_ids_size(), applied.removed_vertices_size()));
+  alive_faces_ =
+      static_cast<std::size_t>(static_cast<std::ptrdiff_t>(alive_faces_) +
+                               net(applied.added_face_ids_size(), applied.removed_faces_size()));
 }
 
 void Session::refresh_summary() {
@@ -154,8 +174,8 @@ v1::SessionInfo Session::info() const {
     for (const auto& m : row_.members) info.add_members(m);
   }
   info.set_version(document_.version);
-  info.set_vertices(document_.alive_vertices());
-  info.set_faces(document_.alive_faces());
+  info.set_vertices(alive_vertices_);
+  info.set_faces(alive_faces_);
   info.set_mesh_name(mesh_name_);
   info.set_undo_depth(static_cast<std::uint32_t>(undo_.size()));
   info.set_redo_depth(static_cast<std::uint32_t>(redo_.size()));
@@ -191,6 +211,7 @@ Status Session::load(LoadedMesh mesh, const std::string& mesh_name, const std::s
   rpc::MeshDocument previous = std::move(document_);
   document_ = std::move(mesh.document);
   document_.version = previous.version + 1;
+  count_alive();
   const std::string previous_name = mesh_name_;
   mesh_name_ = mesh_name;
   auto previous_undo = std::move(undo_);
@@ -218,6 +239,7 @@ Status Session::load(LoadedMesh mesh, const std::string& mesh_name, const std::s
   const auto start = std::chrono::steady_clock::now();
   if (Status s = store_.append_journal(row, &snap); !s.is_ok()) {
     document_ = std::move(previous);
+    count_alive();
     mesh_name_ = previous_name;
     undo_ = std::move(previous_undo);
     redo_ = std::move(previous_redo);
@@ -242,8 +264,8 @@ Status Session::load(LoadedMesh mesh, const std::string& mesh_name, const std::s
             {{"session_id", row_.id},
              {"principal", principal},
              {"mesh", mesh_name},
-             {"vertices", document_.alive_vertices()},
-             {"faces", document_.alive_faces()}});
+             {"vertices", alive_vertices_},
+             {"faces", alive_faces_}});
   return {};
 }
 
@@ -256,6 +278,7 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
     geometry_.invalidate();
     return {StatusCode::Internal, "edit does not apply to the session's mesh: " + s.message};
   }
+  count_alive(delta, +1);
   response.set_version(document_.version);
   JournalRow row;
   row.session_id = row_.id;
@@ -271,6 +294,7 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
     rpc::MeshDocument& doc = document_;
     (void)rpc::apply_delta(doc, inverse);
     document_.version -= 2;  // inverse bumped it once more; the edit never happened
+    count_alive(delta, -1);
     geometry_.invalidate();
     log_event(spdlog::level::err, "journal_failed", {{"session_id", row_.id}, {"msg", s.message}});
     return s;

@@ -105,6 +105,10 @@ class Session : public std::enable_shared_from_this<Session> {
                                 v1::EditResponse& response);
   SnapshotRow make_snapshot() const;
   void refresh_summary();
+  //! Counts the document's alive vertices and faces (after it was replaced); each edit then
+  //! adjusts the counts by its delta (counting them per edit read 2 MB at 1.37M faces, twice).
+  void count_alive();
+  void count_alive(const v1::MeshDelta& applied, int sign);
   //! Tells every subscriber what the sharp-edge tool shows now (\p preview's curve, guide and
   //! k), or that it ended (nullptr).
   void publish_tool_preview(const std::string& principal, const v1::SharpEdgeResponse* preview);
@@ -142,6 +146,8 @@ class Session : public std::enable_shared_from_this<Session> {
   std::atomic<std::uint64_t> version_{0};
   std::map<std::pair<std::uint64_t, std::uint32_t>, CallPtr> subscribers_;
   mutable std::mutex members_mutex_;
+  std::size_t alive_vertices_ = 0;
+  std::size_t alive_faces_ = 0;
   mutable std::mutex summary_mutex_;
   v1::SessionInfo summary_;
 };

@@ -224,8 +224,13 @@ TEST_F(SessionTest, EditsOtherThanFillsKeepTheHoleSearchTrue) {
     return out;
   };
   // After each edit: what was kept, then the holes against a rebuild's.
+  const auto counts_right = [&] {
+    return session->summary().faces() == session->document().alive_faces() &&
+           session->summary().vertices() == session->document().alive_vertices();
+  };
   const auto check = [&](const char* edit, bool holes_kept) {
     EXPECT_EQ(session->geometry().mirror_mismatch(session->document()), "") << edit;
+    EXPECT_TRUE(counts_right()) << edit;
     EXPECT_TRUE(session->geometry().reach_kept()) << edit;
     EXPECT_EQ(session->geometry().holes_kept(), holes_kept) << edit;
     SessionGeometry rebuilt;
@@ -339,6 +344,7 @@ TEST_F(SessionTest, EditsOtherThanFillsKeepTheHoleSearchTrue) {
         StatusCode::FailedPrecondition)
       break;  // nothing left to undo
     ASSERT_EQ(session->geometry().mirror_mismatch(session->document()), "") << "undo " << step;
+    ASSERT_TRUE(counts_right()) << "undo " << step;
     SessionGeometry again;
     ASSERT_EQ(listing(session->holes()), listing(again.holes(session->document())))
         << "undo " << step;
@@ -412,6 +418,11 @@ TEST_F(SessionTest, FillUndoCyclesReuseSlotsAndRecoverIdentically) {
   EXPECT_EQ(x.vertex_alive, y.vertex_alive);
   EXPECT_EQ(x.face_alive, y.face_alive);
   EXPECT_EQ(hole_ids(*recovered), hole_ids(*session));
+  // The summary's counts, kept by both along their edits, are the documents'.
+  EXPECT_EQ(session->summary().faces(), x.alive_faces());
+  EXPECT_EQ(session->summary().vertices(), x.alive_vertices());
+  EXPECT_EQ(recovered->summary().faces(), y.alive_faces());
+  EXPECT_EQ(recovered->summary().vertices(), y.alive_vertices());
   // And the recovered history still works: undo the redone fill, fill it again.
   v1::EditResponse undone;
   ASSERT_TRUE(recovered->step_history(Session::History::Undo, "local", undone).is_ok());
