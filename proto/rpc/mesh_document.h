@@ -30,7 +30,11 @@ struct MeshDocument {
 
 //! Applies \p delta (checked: base version, ids, finite coordinates, faces on alive vertices).
 //! On error the document is unchanged.
-Status apply_delta(MeshDocument& document, const v1::MeshDelta& delta);
+//! \p removals_checked: the caller has made sure that every vertex the delta removes is used by
+//! no face but those it removes (a session's mesh cache tells in O(delta)); that check is then
+//! not made here, where it is a pass over every face (2 ms of an undo at 1.37M faces).
+Status apply_delta(MeshDocument& document, const v1::MeshDelta& delta,
+                   bool removals_checked = false);
 
 //! The edit that undoes \p delta on \p document (whose version becomes the base). Elements
 //! the delta removed come back with the contents their dead slots still hold. (A new edit may

@@ -274,7 +274,11 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
   v1::MeshDelta& delta = *response.mutable_delta();
   delta.set_session_id(row_.id);
   delta.set_author(principal);
-  if (Status s = rpc::apply_delta(document_, delta); !s.is_ok()) {
+  // An undo or redo reaches the cache after the document (SessionGeometry::apply), so the cache
+  // is still at the delta's base and can tell whether its removed vertices are free.
+  const bool removals_checked =
+      (kind == JournalKind::Undo || kind == JournalKind::Redo) && geometry_.removals_free(delta);
+  if (Status s = rpc::apply_delta(document_, delta, removals_checked); !s.is_ok()) {
     geometry_.invalidate();
     return {StatusCode::Internal, "edit does not apply to the session's mesh: " + s.message};
   }

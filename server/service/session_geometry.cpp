@@ -1355,6 +1355,25 @@ void SessionGeometry::discard_pending() {
   bound_growth();
 }
 
+bool SessionGeometry::removals_free(const v1::MeshDelta& delta) const {
+  if (!valid_ || version_ != delta.base_version() || !pending_vertex_map_.empty() ||
+      !pending_face_map_.empty() || !pending_removed_faces_.empty() ||
+      !pending_removed_vertices_.empty() || !pending_replaced_faces_.empty())
+    return false;
+  geometry::LocalSet removed_faces(2 * static_cast<std::size_t>(delta.removed_faces_size()) + 16);
+  for (const std::uint32_t f : delta.removed_faces()) removed_faces.insert(static_cast<int>(f));
+  for (const std::uint32_t v : delta.removed_vertices()) {
+    const std::uint32_t m = v < mesh_of_doc_vertex_.size() ? mesh_of_doc_vertex_[v] : kNoId;
+    if (m == kNoId || m >= mesh_.n_vertices()) return false;
+    for (const FaceHandle f : mesh_.vf_range(VertexHandle(static_cast<int>(m)))) {
+      const auto i = static_cast<std::size_t>(f.idx());
+      const std::uint32_t doc = i < doc_of_mesh_face_.size() ? doc_of_mesh_face_[i] : kNoId;
+      if (doc == kNoId || !removed_faces.contains(static_cast<int>(doc))) return false;
+    }
+  }
+  return true;
+}
+
 void SessionGeometry::apply(const v1::MeshDelta& delta) {
   if (!valid_ || version_ != delta.base_version()) {
     invalidate();

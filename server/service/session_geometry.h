@@ -177,6 +177,10 @@ class SessionGeometry {
   //! it from the document, which is O(mesh size): deleted faces are deleted in the mesh,
   //! revived or new ones added. Anything unexpected falls back to invalidate().
   void apply(const v1::MeshDelta& delta);
+  //! Whether every vertex \p delta removes is used by no face but those it removes, told from the
+  //! cache's adjacency in O(delta) (rpc::apply_delta's removals_checked). False when the cache
+  //! cannot tell: it is not at the delta's base version, or holds an edit not yet committed.
+  bool removals_free(const v1::MeshDelta& delta) const;
   //! Whether the cache currently mirrors a document version (for tests and diagnostics).
   bool cached() const { return valid_; }
   //! The cache mesh's vertex and face slots, deleted ones included (for tests and diagnostics).

@@ -57,6 +57,19 @@ TEST(SessionGeometry, UndoAndRedoUpdateTheCacheLikeARebuild) {
 
   // Undo: the cache follows the inverse delta without a rebuild, and agrees with one.
   const v1::MeshDelta undo = rpc::invert_delta(filled.delta, doc);
+  // The cache tells that the vertices the undo removes are free (apply_delta need not scan every
+  // face for them), and that they are not when the delta keeps their faces.
+  EXPECT_GT(undo.removed_vertices_size(), 0);
+  EXPECT_TRUE(cache.removals_free(undo));
+  v1::MeshDelta keeps_faces = undo;
+  keeps_faces.clear_removed_faces();
+  keeps_faces.clear_added_face_ids();
+  keeps_faces.clear_added_faces();
+  EXPECT_FALSE(cache.removals_free(keeps_faces));
+  {
+    rpc::MeshDocument copy = doc;
+    EXPECT_FALSE(rpc::apply_delta(copy, keeps_faces).is_ok());  // the full check agrees
+  }
   ASSERT_TRUE(rpc::apply_delta(doc, undo).is_ok());
   cache.apply(undo);
   EXPECT_TRUE(cache.cached());
