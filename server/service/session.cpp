@@ -144,11 +144,11 @@ void Session::count_alive() {
   alive_faces_ = document_.alive_faces();
 }
 
-void Session::count_alive(const v1::MeshDelta& applied, int sign) {
+void Session::count_alive(const v1::MeshDelta& applied) {
   // apply_delta checked it: a removed element was alive, an added one dead or appended (or
   // removed by the same delta), so each changes the count by one.
-  const auto net = [sign](int added, int removed) {
-    return static_cast<std::ptrdiff_t>(sign) * (static_cast<std::ptrdiff_t>(added) - removed);
+  const auto net = [](int added, int removed) {
+    return static_cast<std::ptrdiff_t>(added) - removed;
   };
   alive_vertices_ = static_cast<std::size_t>(
       static_cast<std::ptrdiff_t>(alive_vertices_) +
@@ -282,7 +282,7 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
     geometry_.invalidate();
     return {StatusCode::Internal, "edit does not apply to the session's mesh: " + s.message};
   }
-  count_alive(delta, +1);
+  count_alive(delta);
   response.set_version(document_.version);
   JournalRow row;
   row.session_id = row_.id;
@@ -298,7 +298,7 @@ Status Session::commit(JournalKind kind, std::uint64_t target, v1::EditResponse&
     rpc::MeshDocument& doc = document_;
     (void)rpc::apply_delta(doc, inverse);
     document_.version -= 2;  // inverse bumped it once more; the edit never happened
-    count_alive(delta, -1);
+    count_alive();           // counted again: a rare path, and the inverse is not checked here
     geometry_.invalidate();
     log_event(spdlog::level::err, "journal_failed", {{"session_id", row_.id}, {"msg", s.message}});
     return s;

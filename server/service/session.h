@@ -108,7 +108,7 @@ class Session : public std::enable_shared_from_this<Session> {
   //! Counts the document's alive vertices and faces (after it was replaced); each edit then
   //! adjusts the counts by its delta (counting them per edit read 2 MB at 1.37M faces, twice).
   void count_alive();
-  void count_alive(const v1::MeshDelta& applied, int sign);
+  void count_alive(const v1::MeshDelta& applied);
   //! Tells every subscriber what the sharp-edge tool shows now (\p preview's curve, guide and
   //! k), or that it ended (nullptr).
   void publish_tool_preview(const std::string& principal, const v1::SharpEdgeResponse* preview);
