@@ -197,7 +197,16 @@ BuildResult build_mesh(const MeshSoup& soup) {
   return out;
 }
 
+bool has_deleted_tail(const Mesh& mesh) {
+  const auto last_deleted = [&mesh](auto handle, std::size_t n) {
+    return n > 0 && mesh.status(decltype(handle)(static_cast<int>(n - 1))).deleted();
+  };
+  return last_deleted(VertexHandle{}, mesh.n_vertices()) ||
+         last_deleted(EdgeHandle{}, mesh.n_edges()) || last_deleted(FaceHandle{}, mesh.n_faces());
+}
+
 bool drop_deleted_tail(Mesh& mesh) {
+  if (!has_deleted_tail(mesh)) return false;
   std::size_t n_vertices = mesh.n_vertices();
   std::size_t n_edges = mesh.n_edges();
   std::size_t n_faces = mesh.n_faces();
@@ -205,8 +214,6 @@ bool drop_deleted_tail(Mesh& mesh) {
   while (n_edges > 0 && mesh.status(EdgeHandle(static_cast<int>(n_edges - 1))).deleted()) --n_edges;
   while (n_vertices > 0 && mesh.status(VertexHandle(static_cast<int>(n_vertices - 1))).deleted())
     --n_vertices;
-  if (n_vertices == mesh.n_vertices() && n_edges == mesh.n_edges() && n_faces == mesh.n_faces())
-    return false;
   mesh.resize(n_vertices, n_edges, n_faces);
   return true;
 }

@@ -68,5 +68,7 @@ BuildResult build_mesh(const MeshSoup& soup);
 //! takes back the last edit first. A live element never refers to a deleted one (OpenMesh's
 //! deletions unlink them), so nothing kept refers past the cut. Returns whether it dropped any.
 bool drop_deleted_tail(Mesh& mesh);
+//! Whether drop_deleted_tail would drop anything (its last vertex, edge or face is deleted).
+bool has_deleted_tail(const Mesh& mesh);
 
 }  // namespace touchmend::geometry

@@ -242,22 +242,11 @@ void SearchReach::note_moved(const Mesh& mesh, VertexHandle v) {
     grid = VertexGrid{};
     scanned = 0;
   }
-  // A face the move stretched past the reach is found through its corners no more: listed (once).
-  // A face long before the move is on the list already, with the box it had: that box is made
-  // the face's new one (a search would miss the face where it has moved to).
-  const double reach_sqr = longest_edge * longest_edge;
-  for (const FaceHandle f : mesh.vf_range(v)) {
-    TrianglePoints t;
-    std::array<int, 3> ids;
-    face_corners(mesh, f, t, ids);
-    const auto listed = std::find(long_faces.begin(), long_faces.end(), f);
-    if (listed != long_faces.end()) {
-      long_boxes[static_cast<std::size_t>(listed - long_faces.begin())] = triangle_box(t);
-    } else if (longest_sqr_edge(t) > reach_sqr) {
-      long_faces.push_back(f);
-      long_boxes.push_back(triangle_box(t));
-    }
-  }
+  // A face the move stretched past the reach is found through its corners no more, and a face
+  // long before it is listed with the box it had (a search would miss it where it has moved to):
+  // the faces around the vertex are reshaped ones.
+  const std::vector<FaceHandle> around(mesh.vf_range(v).begin(), mesh.vf_range(v).end());
+  note_reshaped(mesh, around);
 }
 
 void SearchReach::note_reshaped(const Mesh& mesh, std::span<const FaceHandle> faces) {

@@ -282,13 +282,7 @@ void SessionGeometry::cut_deleted_tail() {
   // them a compaction put 20-80 ms into one request).
   // The holes' update reads the vertices the edits touched, some of them among those dropped:
   // it runs first (the loops it leaves pass live vertices only, all below the cut).
-  const auto last_deleted = [this](auto handle_type, std::size_t n) {
-    return n > 0 && mesh_.status(decltype(handle_type)(static_cast<int>(n - 1))).deleted();
-  };
-  if (!last_deleted(VertexHandle{}, mesh_.n_vertices()) &&
-      !last_deleted(geometry::EdgeHandle{}, mesh_.n_edges()) &&
-      !last_deleted(FaceHandle{}, mesh_.n_faces()))
-    return;
+  if (!geometry::has_deleted_tail(mesh_)) return;
   if (holes_) search();
   touched_.clear();
   geometry::drop_deleted_tail(mesh_);
