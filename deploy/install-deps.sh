@@ -17,8 +17,9 @@ packages=(
   libusb-1.0-0-dev libglfw3-dev libgl-dev libpng-dev
   # viewer tests and screenshots without a display: Xvfb with Mesa's software OpenGL
   xvfb xauth libgl1-mesa-dri
-  # test tools: certificates for the TLS tests
-  openssl
+  # test tools: certificates for the TLS tests; strace injects fsync failures (EIO) into a
+  # running server for its fail-stop test
+  openssl strace
   # tests
   libgtest-dev libgmock-dev
 )

@@ -233,6 +233,14 @@ int main(int argc, char** argv) {
   metrics.add_gauge("touchmend_store_background_checkpoints",
                     "Checkpoints of the store's write-ahead log made beside the journal commits",
                     [&] { return static_cast<double>(store->background_checkpoints()); });
+  metrics.add_gauge(
+      "touchmend_store_health",
+      "Whether the store takes writes: 0 yes, 1 its disk is full (edits refused until "
+      "space is freed), 2 failed (fail-stop until a restart)",
+      [&] { return static_cast<double>(store->condition().health); });
+  metrics.add_gauge("touchmend_store_disk_full_refusals",
+                    "Writes the store refused because its disk was full",
+                    [&] { return static_cast<double>(store->disk_full_refusals()); });
 
   asio::io_context io;
   ConnectionLimits connection_limits;
@@ -252,7 +260,8 @@ int main(int argc, char** argv) {
 
   std::unique_ptr<AdminHttpServer> admin;
   if (metrics_endpoint) {
-    admin = std::make_unique<AdminHttpServer>(io, metrics, [] { return true; });
+    admin =
+        std::make_unique<AdminHttpServer>(io, metrics, [&] { return store->condition().reason; });
     if (Status s = admin->listen(*metrics_endpoint); !s.is_ok()) return fail(s.message);
   }
 

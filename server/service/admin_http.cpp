@@ -14,8 +14,8 @@ namespace {
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(tcp::socket socket, Metrics& metrics, std::function<bool()> healthy)
-      : stream_(std::move(socket)), metrics_(metrics), healthy_(std::move(healthy)) {}
+  HttpSession(tcp::socket socket, Metrics& metrics, std::function<std::string()> unready)
+      : stream_(std::move(socket)), metrics_(metrics), unready_(std::move(unready)) {}
 
   void start() { read(); }
 
@@ -48,14 +48,19 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       response->set(http::field::content_type, "text/plain; version=0.0.4");
       response->body() = metrics_.render();
     } else if (target == "/healthz") {
-      const bool ok = healthy_ ? healthy_() : true;
-      response->result(ok ? http::status::ok : http::status::service_unavailable);
+      // Liveness: the event loop answered.
+      response->result(http::status::ok);
       response->set(http::field::content_type, "text/plain");
-      response->body() = ok ? "ok\n" : "unhealthy\n";
+      response->body() = "ok\n";
+    } else if (target == "/readyz") {
+      const std::string reason = unready_ ? unready_() : std::string();
+      response->result(reason.empty() ? http::status::ok : http::status::service_unavailable);
+      response->set(http::field::content_type, "text/plain");
+      response->body() = reason.empty() ? "ready\n" : "not ready: " + reason + "\n";
     } else {
       response->result(http::status::not_found);
       response->set(http::field::content_type, "text/plain");
-      response->body() = "not found (try /metrics or /healthz)\n";
+      response->body() = "not found (try /metrics, /healthz or /readyz)\n";
     }
     response->prepare_payload();
     http::async_write(stream_, *response,
@@ -72,14 +77,14 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   beast::flat_buffer buffer_;
   http::request<http::string_body> request_;
   Metrics& metrics_;
-  std::function<bool()> healthy_;
+  std::function<std::string()> unready_;
 };
 
 }  // namespace
 
 AdminHttpServer::AdminHttpServer(asio::io_context& io, Metrics& metrics,
-                                 std::function<bool()> healthy)
-    : io_(io), metrics_(metrics), healthy_(std::move(healthy)), acceptor_(io) {}
+                                 std::function<std::string()> unready)
+    : io_(io), metrics_(metrics), unready_(std::move(unready)), acceptor_(io) {}
 
 rpc::Status AdminHttpServer::listen(const tcp::endpoint& endpoint) {
   beast::error_code ec;
@@ -109,7 +114,7 @@ void AdminHttpServer::stop() {
 void AdminHttpServer::accept() {
   acceptor_.async_accept(asio::make_strand(io_), [this](beast::error_code ec, tcp::socket socket) {
     if (ec == asio::error::operation_aborted) return;
-    if (!ec) std::make_shared<HttpSession>(std::move(socket), metrics_, healthy_)->start();
+    if (!ec) std::make_shared<HttpSession>(std::move(socket), metrics_, unready_)->start();
     accept();
   });
 }

@@ -261,7 +261,9 @@ Status RepairService::open_session(const std::string& principal, const std::stri
 void RepairService::health(const CallPtr& call) {
   unary<v1::HealthRequest>(call, [this, call](const v1::HealthRequest&) {
     v1::HealthResponse r;
-    r.set_serving(true);
+    const StoreCondition store = store_.condition();
+    r.set_serving(store.health == StoreHealth::Ok);
+    r.set_not_serving_reason(store.reason);
     r.set_version(options_.version);
     r.set_sessions(static_cast<std::uint32_t>(session_count()));
     r.set_jobs_queued(static_cast<std::uint32_t>(jobs_.queued()));

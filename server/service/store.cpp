@@ -1,11 +1,15 @@
 #include "server/service/store.h"
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <sqlite3.h>
 #include <sstream>
 #include <thread>
+
+#include "server/service/log.h"
 
 namespace touchmend::service {
 
@@ -143,6 +147,23 @@ std::optional<SnapshotRow> newest_snapshot(sqlite3* db, const std::string& sessi
   return row;
 }
 
+//! What a failed SQLite call on \p db says about the disk under it.
+enum class FailureKind { DiskFull, Fatal, Other };
+
+FailureKind classify_failure(sqlite3* db) {
+  const int code = sqlite3_extended_errcode(db);
+  // A failed sync is fatal whatever its errno (ENOSPC included): the pages it was to flush may
+  // be gone from the kernel's cache (SERVICE.md §3.3).
+  if (code == SQLITE_IOERR_FSYNC || code == SQLITE_IOERR_DIR_FSYNC) return FailureKind::Fatal;
+  if ((code & 0xff) == SQLITE_FULL || sqlite3_system_errno(db) == ENOSPC)
+    return FailureKind::DiskFull;
+  if (code == SQLITE_IOERR_NOMEM) return FailureKind::Other;  // memory, not the disk
+  if ((code & 0xff) == SQLITE_IOERR || (code & 0xff) == SQLITE_CORRUPT ||
+      (code & 0xff) == SQLITE_NOTADB)
+    return FailureKind::Fatal;
+  return FailureKind::Other;
+}
+
 }  // namespace
 
 //! Checkpoints the store file's write-ahead log on a thread of its own, through a connection of
@@ -153,14 +174,18 @@ std::optional<SnapshotRow> newest_snapshot(sqlite3* db, const std::string& sessi
 //! writers (https://www.sqlite.org/wal.html, "Checkpointing"); the commit after a complete one
 //! starts the log over. Should the checkpoints fall behind a stream of commits, the commit that
 //! takes the log past kInlinePages checkpoints it itself, as before, so the log stays bounded.
+//! A checkpoint that fails for the disk (it writes and syncs the database file) is handed to
+//! the store (\p on_failure), which goes fail-stop on an I/O error like a failed commit.
 class WalCheckpointer {
  public:
   static constexpr int kRequestPages = 1000;  //!< SQLite's default autocheckpoint
   static constexpr int kInlinePages = 8000;
+  using FailureHandler = std::function<void(sqlite3* db, const std::string& what)>;
 
   //! Null when the file cannot be opened a second time (the store then checkpoints as SQLite
   //! does by default).
-  static std::unique_ptr<WalCheckpointer> start(const std::filesystem::path& file) {
+  static std::unique_ptr<WalCheckpointer> start(const std::filesystem::path& file,
+                                                FailureHandler on_failure) {
     sqlite3* db = nullptr;
     if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_FULLMUTEX,
                         nullptr) != SQLITE_OK ||
@@ -168,7 +193,7 @@ class WalCheckpointer {
       sqlite3_close(db);
       return nullptr;
     }
-    return std::unique_ptr<WalCheckpointer>(new WalCheckpointer(db));
+    return std::unique_ptr<WalCheckpointer>(new WalCheckpointer(db, std::move(on_failure)));
   }
   ~WalCheckpointer() {
     {
@@ -184,10 +209,10 @@ class WalCheckpointer {
 
   //! The store connection's WAL hook: called after each commit with the pages in the log.
   static int on_commit(void* self, sqlite3* db, const char* name, int pages) {
+    auto* checkpointer = static_cast<WalCheckpointer*>(self);
     if (pages >= kInlinePages) {
-      sqlite3_wal_checkpoint_v2(db, name, SQLITE_CHECKPOINT_PASSIVE, nullptr, nullptr);
+      checkpointer->checkpoint(db, name);
     } else if (pages >= kRequestPages) {
-      auto* checkpointer = static_cast<WalCheckpointer*>(self);
       {
         std::lock_guard lock(checkpointer->mutex_);
         checkpointer->requested_ = true;
@@ -199,7 +224,16 @@ class WalCheckpointer {
   std::uint64_t done() const { return done_.load(std::memory_order_relaxed); }
 
  private:
-  explicit WalCheckpointer(sqlite3* db) : db_(db), thread_([this] { run(); }) {}
+  WalCheckpointer(sqlite3* db, FailureHandler on_failure)
+      : db_(db), on_failure_(std::move(on_failure)), thread_([this] { run(); }) {}
+  //! One passive checkpoint through \p db; a busy one is retried at the next commit's request.
+  bool checkpoint(sqlite3* db, const char* name) {
+    const int rc = sqlite3_wal_checkpoint_v2(db, name, SQLITE_CHECKPOINT_PASSIVE, nullptr, nullptr);
+    if (rc == SQLITE_OK) return true;
+    if ((rc & 0xff) != SQLITE_BUSY && (rc & 0xff) != SQLITE_LOCKED && on_failure_)
+      on_failure_(db, "checkpoint of the write-ahead log");
+    return false;
+  }
   void run() {
     std::unique_lock lock(mutex_);
     for (;;) {
@@ -207,15 +241,13 @@ class WalCheckpointer {
       if (stop_) return;
       requested_ = false;
       lock.unlock();
-      // A busy or failed pass is retried at the next commit's request.
-      if (sqlite3_wal_checkpoint_v2(db_, nullptr, SQLITE_CHECKPOINT_PASSIVE, nullptr, nullptr) ==
-          SQLITE_OK)
-        done_.fetch_add(1, std::memory_order_relaxed);
+      if (checkpoint(db_, nullptr)) done_.fetch_add(1, std::memory_order_relaxed);
       lock.lock();
     }
   }
 
   sqlite3* db_;
+  FailureHandler on_failure_;
   std::mutex mutex_;
   std::condition_variable wake_;
   bool requested_ = false;
@@ -260,7 +292,10 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& st
       return nullptr;
     }
   }
-  store->checkpointer_ = WalCheckpointer::start(file);
+  store->checkpointer_ =
+      WalCheckpointer::start(file, [raw = store.get()](sqlite3* failed, const std::string& what) {
+        (void)raw->failure(failed, what);
+      });
   if (store->checkpointer_)
     sqlite3_wal_hook(db, &WalCheckpointer::on_commit, store->checkpointer_.get());
   // The snapshot file holds nothing the journal does not: a damaged one is set aside (renamed,
@@ -293,25 +328,95 @@ std::uint64_t Store::background_checkpoints() const {
   return checkpointer_ ? checkpointer_->done() : 0;
 }
 
-Status Store::error(const char* what) {
-  const int code = sqlite3_errcode(db_);
-  const StatusCode status_code = (code == SQLITE_FULL || code == SQLITE_IOERR)
-                                     ? StatusCode::ResourceExhausted
-                                     : StatusCode::Internal;
-  return {status_code, std::string(what) + ": " + sqlite3_errmsg(db_)};
+StoreCondition Store::condition() const {
+  std::lock_guard lock(condition_mutex_);
+  return {health_.load(), condition_reason_};
 }
 
-Status Store::exec(const char* sql) {
-  char* message = nullptr;
-  if (sqlite3_exec(db_, sql, nullptr, nullptr, &message) != SQLITE_OK) {
-    Status s{StatusCode::Internal, std::string("store: ") + (message ? message : "?")};
-    sqlite3_free(message);
-    return s;
+Status Store::failure(sqlite3* db, const std::string& what) {
+  const int code = sqlite3_extended_errcode(db);
+  const char* call = code == SQLITE_IOERR_FSYNC || code == SQLITE_IOERR_DIR_FSYNC   ? "fsync, "
+                     : code == SQLITE_IOERR_WRITE                                   ? "write, "
+                     : code == SQLITE_IOERR_READ || code == SQLITE_IOERR_SHORT_READ ? "read, "
+                     : code == SQLITE_IOERR_TRUNCATE                                ? "truncate, "
+                                                                                    : "";
+  const std::string detail =
+      what + ": " + sqlite3_errmsg(db) + " (" + call + "SQLite code " + std::to_string(code) + ")";
+  switch (classify_failure(db)) {
+    case FailureKind::Fatal:
+      fail_stop(detail);
+      // What this write sent may or may not have reached the disk: a commit whose sync failed
+      // can be found complete in the log at the restart (PostgreSQL's commits after a PANIC
+      // are the same). An edit sent with a request_id and sent again after the restart is
+      // answered once either way.
+      return {StatusCode::Unavailable,
+              condition().reason +
+                  ": not acknowledged; whether this write is in the journal is known only after "
+                  "the server is restarted (send an edit again then, with the same request_id); "
+                  "until then the server accepts no edits"};
+    case FailureKind::DiskFull: {
+      disk_full_refusals_.fetch_add(1, std::memory_order_relaxed);
+      bool began = false;
+      {
+        std::lock_guard lock(condition_mutex_);
+        if (health_.load() == StoreHealth::Ok) {
+          health_.store(StoreHealth::DiskFull);
+          condition_reason_ = "the store's disk is full (" + detail + ")";
+          began = true;
+        }
+      }
+      if (began) log_event(spdlog::level::warn, "store_disk_full", {{"msg", detail}});
+      return {StatusCode::ResourceExhausted,
+              "the store's disk is full (" + detail +
+                  "): edits are refused until space is freed, then taken again"};
+    }
+    case FailureKind::Other:
+      break;
   }
+  return {StatusCode::Internal, "store: " + detail};
+}
+
+void Store::fail_stop(const std::string& reason) {
+  {
+    std::lock_guard lock(condition_mutex_);
+    if (health_.load() == StoreHealth::Failed) return;
+    health_.store(StoreHealth::Failed);
+    condition_reason_ = "the store failed (" + reason + ")";
+  }
+  log_event(spdlog::level::critical, "store_failed",
+            {{"msg", reason},
+             {"action",
+              "no more edits are written or acknowledged; restart the server to "
+              "recover from the journal"}});
+}
+
+Status Store::refusal() const {
+  if (health_.load() != StoreHealth::Failed) return {};
+  return {StatusCode::Unavailable,
+          condition().reason +
+              ": refused; the server accepts no edits until it is restarted (recovery replays the "
+              "journal; nothing acknowledged is lost)"};
+}
+
+void Store::wrote() {
+  if (health_.load() != StoreHealth::DiskFull) return;
+  {
+    std::lock_guard lock(condition_mutex_);
+    if (health_.load() != StoreHealth::DiskFull) return;
+    health_.store(StoreHealth::Ok);
+    condition_reason_.clear();
+  }
+  log_event(spdlog::level::info, "store_writable", {{"msg", "the store's disk has room again"}});
+}
+
+Status Store::exec(const char* sql, const char* what) {
+  if (sqlite3_exec(db_, sql, nullptr, nullptr, nullptr) != SQLITE_OK)
+    return failure(db_, std::string(what) + ": " + sql);
   return {};
 }
 
 Status Store::insert_session(const SessionRow& row) {
+  if (Status s = refusal(); !s.is_ok()) return s;
   std::lock_guard lock(mutex_);
   Statement st(db_, "INSERT INTO sessions(id,name,owner,created_ms,request_id) VALUES(?,?,?,?,?)");
   st.bind_text(1, row.id);
@@ -320,6 +425,7 @@ Status Store::insert_session(const SessionRow& row) {
   st.bind(4, row.created_ms);
   st.bind_text(5, row.request_id);
   if (st.step() != SQLITE_DONE) return error("insert session");
+  wrote();
   return {};
 }
 
@@ -327,13 +433,12 @@ Status Store::delete_session(const std::string& id) {
   // The snapshot file first: a crash between the two leaves the session with its journal (and
   // its load's snapshot), which recovers it; the other order could leave snapshots of a deleted
   // session behind.
+  if (Status s = refusal(); !s.is_ok()) return s;
   if (snapshot_db_ != nullptr) {
     std::lock_guard lock(snapshot_mutex_);
     Statement st(snapshot_db_, "DELETE FROM snapshots WHERE session_id=?");
     st.bind_text(1, id);
-    if (st.step() != SQLITE_DONE)
-      return {StatusCode::Internal,
-              std::string("delete session snapshots: ") + sqlite3_errmsg(snapshot_db_)};
+    if (st.step() != SQLITE_DONE) return failure(snapshot_db_, "delete session snapshots");
   }
   std::lock_guard lock(mutex_);
   if (Status s = exec("BEGIN IMMEDIATE"); !s.is_ok()) return s;
@@ -348,11 +453,17 @@ Status Store::delete_session(const std::string& id) {
       return s;
     }
   }
-  return exec("COMMIT");
+  if (Status s = exec("COMMIT", "delete session"); !s.is_ok()) {
+    exec("ROLLBACK");
+    return s;
+  }
+  wrote();
+  return {};
 }
 
 Status Store::set_member(const std::string& session_id, const std::string& principal,
                          bool present) {
+  if (Status s = refusal(); !s.is_ok()) return s;
   std::lock_guard lock(mutex_);
   Statement st(db_, present
                         ? "INSERT OR IGNORE INTO session_members(session_id,principal) VALUES(?,?)"
@@ -360,6 +471,7 @@ Status Store::set_member(const std::string& session_id, const std::string& princ
   st.bind_text(1, session_id);
   st.bind_text(2, principal);
   if (st.step() != SQLITE_DONE) return error("set member");
+  wrote();
   return {};
 }
 
@@ -395,6 +507,7 @@ bool insert_snapshot(sqlite3* db, const SnapshotRow& row) {
 }  // namespace
 
 Status Store::append_journal(const JournalRow& row, const SnapshotRow* snapshot) {
+  if (Status s = refusal(); !s.is_ok()) return s;
   std::lock_guard lock(mutex_);
   const auto start = std::chrono::steady_clock::now();
   if (Status s = exec("BEGIN IMMEDIATE"); !s.is_ok()) return s;
@@ -425,33 +538,35 @@ Status Store::append_journal(const JournalRow& row, const SnapshotRow* snapshot)
       return s;
     }
   }
-  if (Status s = exec("COMMIT"); !s.is_ok()) {
+  if (Status s = exec("COMMIT", "journal append"); !s.is_ok()) {
     exec("ROLLBACK");
-    return {StatusCode::ResourceExhausted, s.message};
+    return s;
   }
   last_commit_seconds_ =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  wrote();
   return {};
 }
 
 Status Store::write_snapshot(const SnapshotRow& row) {
+  if (Status s = refusal(); !s.is_ok()) return s;
   if (snapshot_db_ != nullptr) {
     {
       std::lock_guard lock(snapshot_mutex_);
       // One transaction: a crash never leaves the new snapshot missing with the older ones
       // already deleted.
-      if (!exec_ok(snapshot_db_, "BEGIN IMMEDIATE"))
-        return {StatusCode::Internal, std::string("snapshot: ") + sqlite3_errmsg(snapshot_db_)};
+      if (!exec_ok(snapshot_db_, "BEGIN IMMEDIATE")) return failure(snapshot_db_, "snapshot");
       Statement st(snapshot_db_, "DELETE FROM snapshots WHERE session_id=? AND version<?");
       st.bind_text(1, row.session_id);
       st.bind(2, static_cast<std::int64_t>(row.version));
       if (!insert_snapshot(snapshot_db_, row) || st.step() != SQLITE_DONE ||
           !exec_ok(snapshot_db_, "COMMIT")) {
-        Status s{StatusCode::Internal, std::string("snapshot: ") + sqlite3_errmsg(snapshot_db_)};
+        Status s = failure(snapshot_db_, "snapshot");
         exec_ok(snapshot_db_, "ROLLBACK");
         return s;
       }
     }
+    wrote();
     // The store file's snapshot of the session (its last load's) stays until the next load
     // replaces it: deleting a large one here took the journal's lock for tens of milliseconds.
     return {};
@@ -470,11 +585,12 @@ Status Store::write_snapshot(const SnapshotRow& row) {
     if (!insert_snapshot(db_, row) || st.step() != SQLITE_DONE) {
       result = error("snapshot");
       exec("ROLLBACK");
-    } else if (result = exec("COMMIT"); !result.is_ok()) {
+    } else if (result = exec("COMMIT", "snapshot"); !result.is_ok()) {
       exec("ROLLBACK");
     }
   }
   exec("PRAGMA synchronous=FULL");
+  if (result.is_ok()) wrote();
   return result;
 }
 
@@ -544,6 +660,7 @@ std::optional<JournalRow> Store::journal_by_request(const std::string& session_i
 }
 
 Status Store::insert_job(const JobRow& row, const std::string& input) {
+  if (Status s = refusal(); !s.is_ok()) return s;
   std::lock_guard lock(mutex_);
   Statement st(db_,
                "INSERT INTO jobs(id,principal,state,spec,input,created_ms) VALUES(?,?,?,?,?,?)");
@@ -554,10 +671,12 @@ Status Store::insert_job(const JobRow& row, const std::string& input) {
   st.bind(5, input);
   st.bind(6, row.created_ms);
   if (st.step() != SQLITE_DONE) return error("insert job");
+  wrote();
   return {};
 }
 
 Status Store::update_job(const JobRow& row) {
+  if (Status s = refusal(); !s.is_ok()) return s;
   std::lock_guard lock(mutex_);
   Statement st(db_,
                "UPDATE jobs SET state=?,report=?,error_code=?,error_message=?,attempts=?,"
@@ -570,10 +689,12 @@ Status Store::update_job(const JobRow& row) {
   st.bind(6, row.finished_ms);
   st.bind_text(7, row.id);
   if (st.step() != SQLITE_DONE) return error("update job");
+  wrote();
   return {};
 }
 
 Status Store::set_job_result(const JobRow& row, const std::string& result) {
+  if (Status s = refusal(); !s.is_ok()) return s;
   std::lock_guard lock(mutex_);
   Statement st(db_,
                "UPDATE jobs SET state=?,report=?,error_code=0,error_message='',attempts=?,"
@@ -586,6 +707,7 @@ Status Store::set_job_result(const JobRow& row, const std::string& result) {
   st.bind(6, static_cast<std::int64_t>(result.size()));
   st.bind_text(7, row.id);
   if (st.step() != SQLITE_DONE) return error("job result");
+  wrote();
   return {};
 }
 
@@ -630,10 +752,12 @@ std::optional<std::string> Store::job_result(const std::string& id) {
 }
 
 Status Store::delete_job(const std::string& id) {
+  if (Status s = refusal(); !s.is_ok()) return s;
   std::lock_guard lock(mutex_);
   Statement st(db_, "DELETE FROM jobs WHERE id=?");
   st.bind_text(1, id);
   if (st.step() != SQLITE_DONE) return error("delete job");
+  wrote();
   return {};
 }
 

@@ -9,6 +9,7 @@
 //! Thread-safe: one connection behind a mutex (commits are short; the journal is the only
 //! hot path and its rows are small).
 
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -71,6 +72,24 @@ struct JobRow {
   std::uint64_t result_bytes = 0;
 };
 
+//! Whether the store takes writes (SERVICE.md §3.3, "fsync errors are fatal", "Disk full").
+enum class StoreHealth : int {
+  Ok = 0,
+  //! The last write found the disk full (ENOSPC): writes are refused with RESOURCE_EXHAUSTED
+  //! until one gets through again, which ends the condition without a restart.
+  DiskFull = 1,
+  //! A write or sync failed with an I/O error (or the file is corrupt): the store is fail-stop.
+  //! Data the kernel had cached may have been dropped at write-back, and a retried sync can
+  //! report success without having flushed it (PostgreSQL's "fsyncgate"), so nothing is written
+  //! or acknowledged again until the server is restarted and recovers from the journal.
+  Failed = 2,
+};
+
+struct StoreCondition {
+  StoreHealth health = StoreHealth::Ok;
+  std::string reason;  //!< empty when Ok
+};
+
 class Store {
  public:
   //! Opens (creating if needed) the store file and its schema.
@@ -122,10 +141,28 @@ class Store {
   //! commits, as SQLite does by default (the checkpointer's connection could not be opened).
   std::uint64_t background_checkpoints() const;
 
+  //! Whether the store takes writes, and why not (for readiness, Health and /metrics).
+  StoreCondition condition() const;
+  //! Writes refused because the disk was full (for /metrics).
+  std::uint64_t disk_full_refusals() const {
+    return disk_full_refusals_.load(std::memory_order_relaxed);
+  }
+
  private:
   explicit Store(sqlite3* db);
-  Status exec(const char* sql);
-  Status error(const char* what);
+  //! Runs \p sql; a failure is reported as part of \p what.
+  Status exec(const char* sql, const char* what = "store");
+  //! The status for the failed call \p what on \p db, from SQLite's extended error code: a full
+  //! disk is RESOURCE_EXHAUSTED (and the condition DiskFull), an I/O error or a corrupt file
+  //! makes the store fail-stop (UNAVAILABLE from then on), anything else is INTERNAL.
+  Status failure(sqlite3* db, const std::string& what);
+  Status error(const char* what) { return failure(db_, what); }
+  //! Non-OK (UNAVAILABLE) once the store has failed: every write starts with it.
+  Status refusal() const;
+  //! Makes the store fail-stop for \p reason (the first reason is kept).
+  void fail_stop(const std::string& reason);
+  //! A write went through: a full disk has room again.
+  void wrote();
 
   sqlite3* db_;
   std::mutex mutex_;
@@ -133,6 +170,10 @@ class Store {
   std::mutex snapshot_mutex_;
   double last_commit_seconds_ = 0;
   std::unique_ptr<WalCheckpointer> checkpointer_;
+  std::atomic<StoreHealth> health_{StoreHealth::Ok};
+  mutable std::mutex condition_mutex_;
+  std::string condition_reason_;  //!< guarded by condition_mutex_
+  std::atomic<std::uint64_t> disk_full_refusals_{0};
 };
 
 }  // namespace touchmend::service

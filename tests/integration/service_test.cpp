@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <atomic>
 #include <boost/asio.hpp>
+#include <fcntl.h>
 #include <future>
 #include <random>
 #include <signal.h>
 #include <sys/wait.h>
 #include <thread>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -1067,8 +1069,150 @@ TEST(Service, MetricsAndHealthOverHttp) {
                    "GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
   EXPECT_NE(r.received.find("200 OK"), std::string::npos);
   r = raw_exchange(server.metrics_port(),
+                   "GET /readyz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(r.received.find("200 OK"), std::string::npos);
+  EXPECT_NE(r.received.find("ready"), std::string::npos);
+  r = raw_exchange(server.metrics_port(),
                    "GET /nope HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
   EXPECT_NE(r.received.find("404"), std::string::npos);
+}
+
+//! strace attached to a running process, failing every fsync and fdatasync of it with EIO
+//! (SERVICE.md §5.1's fault injection) until it is stopped.
+class SyncFailureInjection {
+ public:
+  SyncFailureInjection(pid_t target, const std::filesystem::path& dir) : log_(dir / "strace.err") {
+    const std::string pid = std::to_string(target);
+    const std::string log = log_.string();
+    pid_ = fork();
+    if (pid_ == 0) {
+      const int fd = ::open(log.c_str(), O_CREAT | O_WRONLY | O_TRUNC, 0644);
+      if (fd >= 0) {
+        dup2(fd, STDERR_FILENO);
+        dup2(fd, STDOUT_FILENO);
+      }
+      execlp("strace", "strace", "-f", "-p", pid.c_str(), "-e", "trace=fsync,fdatasync", "-e",
+             "inject=fsync,fdatasync:error=EIO", "-o", "/dev/null", static_cast<char*>(nullptr));
+      _exit(127);
+    }
+  }
+  ~SyncFailureInjection() { stop(); }
+  //! Waits until strace has attached (it reports "Process N attached" for the process), or why
+  //! it could not (no strace, no ptrace allowed).
+  bool attached(std::string& why) {
+    for (int i = 0; i < 200; ++i) {
+      const std::string text = read_binary_file(log_);
+      if (text.find("attached") != std::string::npos) return true;
+      int status = 0;
+      if (pid_ <= 0 || waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        why = "strace did not attach: " + text;
+        return false;
+      }
+      std::this_thread::sleep_for(50ms);
+    }
+    why = "strace did not attach within 10 s";
+    return false;
+  }
+  //! Detaches strace (on SIGTERM it lets the process go on untraced).
+  void stop() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGTERM);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
+  }
+
+ private:
+  std::filesystem::path log_;
+  pid_t pid_ = -1;
+};
+
+// A failed fsync of the journal on a real server (strace injecting EIO, SERVICE.md §5.3 "fsync
+// EIO"): the edit is answered UNAVAILABLE, not acknowledged; the server goes fail-stop (Health
+// not serving, /readyz 503 with the reason) and, with the disk healthy again, still takes no
+// edit, though it serves reads. After a restart it has every acknowledged edit, takes edits
+// again, and the unacknowledged one, sent again with its request_id, is applied exactly once
+// (its commit may or may not be found complete in the log: what reached the disk decides).
+TEST(Service, AFailedFsyncMakesTheServerFailStopUntilARestart) {
+  ServerWithClient s;
+  ASSERT_TRUE(s.ready()) << s.server.log();
+  const std::string session = make_session(s.client, "eio");
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(s.client.list_holes(session, holes).is_ok());
+  ASSERT_GE(holes.holes_size(), 3);
+  v1::EditResponse first;
+  ASSERT_TRUE(s.client.fill_holes(fill_request(session, holes.holes(0).id()), first).is_ok());
+  rpc::MeshDocument acknowledged;
+  ASSERT_TRUE(s.client.download_document(session, acknowledged).is_ok());
+  ASSERT_EQ(acknowledged.version, first.version());
+  v1::FillHolesRequest unacknowledged = fill_request(session, holes.holes(1).id());
+  unacknowledged.set_request_id("eio-fill-1");
+
+  {
+    SyncFailureInjection injection(s.server.pid(), s.dir.path());
+    std::string why;
+    if (!injection.attached(why)) GTEST_SKIP() << why;
+    v1::EditResponse refused;
+    const Status failed = s.client.fill_holes(unacknowledged, refused);
+    EXPECT_EQ(failed.code, StatusCode::Unavailable) << failed.to_string();
+    EXPECT_NE(failed.message.find("fsync"), std::string::npos) << failed.message;
+  }
+  // strace is gone and syncs work again: no silent continue.
+  v1::EditResponse refused;
+  EXPECT_EQ(s.client.fill_holes(fill_request(session, holes.holes(1).id()), refused).code,
+            StatusCode::Unavailable);
+  EXPECT_EQ(s.client.undo(session, refused).code, StatusCode::Unavailable);
+  v1::SessionInfo other;
+  EXPECT_EQ(s.client.create_session("another", other).code, StatusCode::Unavailable);
+  v1::HealthResponse health;
+  ASSERT_TRUE(s.client.health(health).is_ok());
+  EXPECT_FALSE(health.serving());
+  EXPECT_NE(health.not_serving_reason().find("store failed"), std::string::npos)
+      << health.not_serving_reason();
+  RawResult ready = raw_exchange(
+      s.server.metrics_port(), "GET /readyz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(ready.received.find("503"), std::string::npos) << ready.received;
+  EXPECT_NE(ready.received.find("not ready: the store failed"), std::string::npos)
+      << ready.received;
+  RawResult metrics = raw_exchange(
+      s.server.metrics_port(), "GET /metrics HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(metrics.received.find("touchmend_store_health 2"), std::string::npos);
+  rpc::MeshDocument served;
+  ASSERT_TRUE(s.client.download_document(session, served).is_ok());
+  EXPECT_EQ(served.version, acknowledged.version);
+  EXPECT_EQ(served.alive_faces(), acknowledged.alive_faces());
+
+  EXPECT_EQ(s.server.stop(SIGKILL), -SIGKILL);
+  ASSERT_TRUE(s.server.start()) << s.server.log();
+  auto channel = s.server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient after(channel);
+  ASSERT_TRUE(after.health(health).is_ok());
+  EXPECT_TRUE(health.serving()) << health.not_serving_reason();
+  ready = raw_exchange(s.server.metrics_port(),
+                       "GET /readyz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(ready.received.find("200 OK"), std::string::npos) << ready.received;
+  rpc::MeshDocument recovered;
+  ASSERT_TRUE(after.download_document(session, recovered).is_ok());
+  ASSERT_GE(recovered.version, acknowledged.version);
+  ASSERT_LE(recovered.version, acknowledged.version + 1);
+  if (recovered.version == acknowledged.version) {
+    EXPECT_EQ(recovered.alive_faces(), acknowledged.alive_faces());
+    EXPECT_EQ(recovered.alive_vertices(), acknowledged.alive_vertices());
+  }
+  v1::EditResponse second;
+  ASSERT_TRUE(after.fill_holes(unacknowledged, second).is_ok());
+  EXPECT_EQ(second.version(), acknowledged.version + 1);
+  v1::EditResponse again;
+  ASSERT_TRUE(after.fill_holes(unacknowledged, again).is_ok());
+  EXPECT_EQ(again.version(), second.version());
+  rpc::MeshDocument final_document;
+  ASSERT_TRUE(after.download_document(session, final_document).is_ok());
+  EXPECT_EQ(final_document.version, acknowledged.version + 1);
+  v1::ListHolesResponse left;
+  ASSERT_TRUE(after.list_holes(session, left).is_ok());
+  EXPECT_EQ(left.holes_size(), holes.holes_size() - 2);
 }
 
 }  // namespace

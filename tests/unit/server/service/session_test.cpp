@@ -16,6 +16,7 @@
 #include "server/service/metrics.h"
 #include "server/service/store.h"
 #include "tests/support/mesh_factory.h"
+#include "tests/unit/server/service/faulty_vfs.h"
 
 namespace touchmend::service {
 namespace {
@@ -161,6 +162,183 @@ TEST_F(SessionTest, ADamagedSnapshotFileIsSetAside) {
   ASSERT_TRUE(store_->write_snapshot(snapshot_at(3, "E")).is_ok());
   ASSERT_TRUE(store_->latest_snapshot("s1"));
   EXPECT_EQ(store_->latest_snapshot("s1")->document, "E");
+}
+
+//! The session test's store, opened through a VFS that fails syncs and writes on request.
+class StoreFaultTest : public SessionTest {
+ protected:
+  //! A journal row of \p bytes random bytes at \p version.
+  static JournalRow journal_row(std::uint64_t version, std::size_t bytes = 64) {
+    JournalRow row;
+    row.session_id = "s1";
+    row.version = version;
+    row.kind = JournalKind::Edit;
+    row.response.resize(bytes);
+    std::mt19937 random(static_cast<unsigned>(version));
+    for (char& c : row.response) c = static_cast<char>(random());
+    return row;
+  }
+  //! The versions of the journal rows \p store holds.
+  static std::vector<std::uint64_t> versions(Store& store) {
+    std::vector<std::uint64_t> out;
+    for (const JournalRow& row : store.journal_after("s1", 0, 100000)) out.push_back(row.version);
+    return out;
+  }
+
+  //! Whether \p a and \p b have the same alive vertices and faces in the same slots (a slot one
+  //! of them has beyond the other's arrays is dead: an edit taken back leaves its slots dead).
+  static ::testing::AssertionResult same_alive_content(const rpc::MeshDocument& a,
+                                                       const rpc::MeshDocument& b) {
+    for (std::size_t v = 0; v < std::max(a.positions.size(), b.positions.size()); ++v) {
+      const bool in_a = v < a.positions.size() && a.vertex_alive[v];
+      const bool in_b = v < b.positions.size() && b.vertex_alive[v];
+      if (in_a != in_b || (in_a && a.positions[v] != b.positions[v]))
+        return ::testing::AssertionFailure() << "vertex " << v;
+    }
+    for (std::size_t f = 0; f < std::max(a.faces.size(), b.faces.size()); ++f) {
+      const bool in_a = f < a.faces.size() && a.face_alive[f];
+      const bool in_b = f < b.faces.size() && b.face_alive[f];
+      if (in_a != in_b || (in_a && a.faces[f] != b.faces[f]))
+        return ::testing::AssertionFailure() << "face " << f;
+    }
+    return ::testing::AssertionSuccess();
+  }
+
+  testing::FaultyVfs vfs_;  // constructed before SetUp opens the store, gone after TearDown
+};
+
+// A failed sync of the journal (SERVICE.md §3.3, "fsync errors are fatal, not retryable"): the
+// commit is refused with UNAVAILABLE and the store goes fail-stop. With the disk healthy again
+// it still writes nothing (a retried fsync may report success without having flushed what the
+// failed one lost), though it still reads; after a restart the journal holds exactly the rows
+// acknowledged before the failure.
+TEST_F(StoreFaultTest, AFailedSyncMakesTheStoreFailStop) {
+  for (std::uint64_t version = 1; version <= 3; ++version)
+    ASSERT_TRUE(store_->append_journal(journal_row(version)).is_ok());
+  EXPECT_EQ(store_->condition().health, StoreHealth::Ok);
+  EXPECT_TRUE(store_->condition().reason.empty());
+
+  vfs_.fail_syncs("touchmend.db-wal");
+  const Status failed = store_->append_journal(journal_row(4));
+  EXPECT_EQ(failed.code, StatusCode::Unavailable) << failed.to_string();
+  EXPECT_NE(failed.message.find("not acknowledged"), std::string::npos) << failed.message;
+  EXPECT_GE(vfs_.failures(), 1u);
+  EXPECT_EQ(store_->condition().health, StoreHealth::Failed);
+  EXPECT_NE(store_->condition().reason.find("journal append"), std::string::npos)
+      << store_->condition().reason;
+
+  vfs_.heal();
+  const std::uint64_t failures = vfs_.failures();
+  const Status refused = store_->append_journal(journal_row(4));
+  EXPECT_EQ(refused.code, StatusCode::Unavailable);
+  EXPECT_NE(refused.message.find("refused"), std::string::npos) << refused.message;
+  EXPECT_EQ(store_->write_snapshot(snapshot_at(3, "S")).code, StatusCode::Unavailable);
+  JobRow job;
+  job.id = "j1";
+  EXPECT_EQ(store_->insert_job(job, "input").code, StatusCode::Unavailable);
+  EXPECT_EQ(store_->set_member("s1", "someone", true).code, StatusCode::Unavailable);
+  EXPECT_EQ(store_->delete_session("s1").code, StatusCode::Unavailable);
+  EXPECT_EQ(vfs_.failures(), failures);  // refused before SQLite was asked
+  EXPECT_EQ(versions(*store_), (std::vector<std::uint64_t>{1, 2, 3}));  // reads are served
+
+  store_.reset();
+  store_ = open_store();
+  ASSERT_TRUE(store_);
+  EXPECT_EQ(store_->condition().health, StoreHealth::Ok);
+  EXPECT_EQ(versions(*store_), (std::vector<std::uint64_t>{1, 2, 3}));
+  EXPECT_TRUE(store_->append_journal(journal_row(4)).is_ok());
+}
+
+// A full disk (SERVICE.md §3.3, "Disk full"): writes are refused with RESOURCE_EXHAUSTED and
+// counted, the condition says so; once space is back the next write goes through, with no
+// restart, and ends the condition. Nothing acknowledged is lost, nothing refused is kept.
+TEST_F(StoreFaultTest, AFullDiskRefusesWritesUntilSpaceReturns) {
+  for (std::uint64_t version = 1; version <= 2; ++version)
+    ASSERT_TRUE(store_->append_journal(journal_row(version, 20'000)).is_ok());
+  vfs_.fail_writes_as_full("");
+  const Status full = store_->append_journal(journal_row(3, 20'000));
+  EXPECT_EQ(full.code, StatusCode::ResourceExhausted) << full.to_string();
+  EXPECT_NE(full.message.find("full"), std::string::npos) << full.message;
+  EXPECT_EQ(store_->condition().health, StoreHealth::DiskFull);
+  JobRow job;
+  job.id = "j1";
+  EXPECT_EQ(store_->insert_job(job, std::string(10'000, 'x')).code, StatusCode::ResourceExhausted);
+  EXPECT_GE(store_->disk_full_refusals(), 2u);
+  EXPECT_EQ(versions(*store_), (std::vector<std::uint64_t>{1, 2}));
+
+  vfs_.heal();
+  ASSERT_TRUE(store_->append_journal(journal_row(3, 20'000)).is_ok());
+  EXPECT_EQ(store_->condition().health, StoreHealth::Ok);
+  EXPECT_TRUE(store_->condition().reason.empty());
+  store_.reset();
+  store_ = open_store();
+  ASSERT_TRUE(store_);
+  const auto rows = store_->journal_after("s1", 0, 100);
+  ASSERT_EQ(rows.size(), 3u);
+  for (const JournalRow& row : rows)
+    EXPECT_EQ(row.response, journal_row(row.version, 20'000).response) << row.version;
+}
+
+// The background checkpoint syncs the database file: when that sync fails, the store goes
+// fail-stop as for a failed commit, instead of the checkpointer retrying it silently.
+TEST_F(StoreFaultTest, AFailedCheckpointMakesTheStoreFailStop) {
+  vfs_.fail_syncs("touchmend.db");  // the database file, not its log
+  std::uint64_t version = 0;
+  // Past 1,000 pages the checkpointer is asked to copy the log into the database file.
+  while (version < 80 && store_->condition().health == StoreHealth::Ok) {
+    ++version;
+    if (!store_->append_journal(journal_row(version, 100'000)).is_ok()) break;
+  }
+  for (int wait = 0; wait < 1000 && store_->condition().health == StoreHealth::Ok; ++wait)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(store_->condition().health, StoreHealth::Failed);
+  EXPECT_NE(store_->condition().reason.find("checkpoint"), std::string::npos)
+      << store_->condition().reason;
+  EXPECT_EQ(store_->append_journal(journal_row(1000)).code, StatusCode::Unavailable);
+}
+
+// A session whose journal commit fails: the fill is not applied (the document, its version and
+// holes are those before it, nothing is broadcast), later edits and undos are refused with the
+// store's reason, and a session recovered after the restart is the one before the failure.
+TEST_F(StoreFaultTest, ASessionKeepsNothingItCouldNotJournal) {
+  auto session = make_session();
+  ASSERT_TRUE(load_sample(*session));
+  const auto holes = hole_ids(*session);
+  ASSERT_GE(holes.size(), 3u);
+  v1::EditResponse first;
+  ASSERT_TRUE(fill_one(*session, holes[0], first).is_ok());
+  const rpc::MeshDocument before = session->document();
+  const auto holes_before = hole_ids(*session);
+
+  vfs_.fail_syncs("touchmend.db-wal");
+  v1::EditResponse second;
+  const Status failed = fill_one(*session, holes[1], second);
+  EXPECT_EQ(failed.code, StatusCode::Unavailable) << failed.to_string();
+  EXPECT_EQ(session->version(), before.version);
+  EXPECT_TRUE(same_alive_content(session->document(), before));
+  EXPECT_EQ(hole_ids(*session), holes_before);
+  EXPECT_EQ(session->summary().faces(), before.alive_faces());
+
+  vfs_.heal();
+  v1::EditResponse third;
+  EXPECT_EQ(fill_one(*session, holes[2], third).code, StatusCode::Unavailable);
+  v1::EditResponse undone;
+  EXPECT_EQ(session->step_history(Session::History::Undo, "local", undone).code,
+            StatusCode::Unavailable);
+  EXPECT_EQ(session->version(), before.version);
+  EXPECT_EQ(hole_ids(*session), holes_before);
+
+  session.reset();
+  store_.reset();
+  store_ = open_store();
+  ASSERT_TRUE(store_);
+  auto recovered = make_session();
+  ASSERT_TRUE(recovered->recover().is_ok());
+  EXPECT_EQ(recovered->version(), before.version);
+  EXPECT_TRUE(same_alive_content(recovered->document(), before));
+  EXPECT_EQ(hole_ids(*recovered), holes_before);
+  v1::EditResponse again;
+  EXPECT_TRUE(fill_one(*recovered, holes[1], again).is_ok());
 }
 
 // The store file's write-ahead log is checkpointed by the store's own thread once it passes
