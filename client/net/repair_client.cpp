@@ -192,12 +192,23 @@ Status RepairClient::sharp_edge(const v1::SharpEdgeRequest& request, v1::SharpEd
   return channel()->unary("SharpEdge", request, out);
 }
 
-Status RepairClient::undo(const std::string& session_id, v1::EditResponse& out) {
-  return channel()->unary("Undo", ref(session_id), out);
+namespace {
+v1::HistoryRequest history_request(const std::string& session_id, const std::string& request_id) {
+  v1::HistoryRequest r;
+  r.set_session_id(session_id);
+  r.set_request_id(request_id);
+  return r;
+}
+}  // namespace
+
+Status RepairClient::undo(const std::string& session_id, v1::EditResponse& out,
+                          const std::string& request_id) {
+  return channel()->unary("Undo", history_request(session_id, request_id), out);
 }
 
-Status RepairClient::redo(const std::string& session_id, v1::EditResponse& out) {
-  return channel()->unary("Redo", ref(session_id), out);
+Status RepairClient::redo(const std::string& session_id, v1::EditResponse& out,
+                          const std::string& request_id) {
+  return channel()->unary("Redo", history_request(session_id, request_id), out);
 }
 
 std::unique_ptr<Stream> RepairClient::server_stream(const std::string& method,

@@ -81,8 +81,12 @@ class RepairClient {
   Status list_gaps(const v1::ListGapsRequest& request, v1::ListGapsResponse& out);
   Status bridge_gaps(const v1::BridgeGapsRequest& request, v1::EditResponse& out);
   Status sharp_edge(const v1::SharpEdgeRequest& request, v1::SharpEdgeResponse& out);
-  Status undo(const std::string& session_id, v1::EditResponse& out);
-  Status redo(const std::string& session_id, v1::EditResponse& out);
+  //! \p request_id (optional, AIP-155): sent again after a lost answer or a server restart, the
+  //! same id gets the step already taken instead of another one.
+  Status undo(const std::string& session_id, v1::EditResponse& out,
+              const std::string& request_id = "");
+  Status redo(const std::string& session_id, v1::EditResponse& out,
+              const std::string& request_id = "");
 
   std::unique_ptr<Stream> subscribe(const std::string& session_id, std::uint64_t after_version);
   std::unique_ptr<Stream> interact();

@@ -550,19 +550,23 @@ void RepairService::sharp_edge(const CallPtr& call) {
 }
 
 void RepairService::undo(const CallPtr& call) {
-  on_session<v1::SessionRef>(call, [call](const v1::SessionRef&, const SessionPtr& session) {
-    v1::EditResponse response;
-    Status s = session->step_history(Session::History::Undo, call->principal(), response);
-    reply(call, s, response);
-  });
+  on_session<v1::HistoryRequest>(
+      call, [call](const v1::HistoryRequest& req, const SessionPtr& session) {
+        v1::EditResponse response;
+        Status s = session->step_history(Session::History::Undo, call->principal(), response,
+                                         req.request_id());
+        reply(call, s, response);
+      });
 }
 
 void RepairService::redo(const CallPtr& call) {
-  on_session<v1::SessionRef>(call, [call](const v1::SessionRef&, const SessionPtr& session) {
-    v1::EditResponse response;
-    Status s = session->step_history(Session::History::Redo, call->principal(), response);
-    reply(call, s, response);
-  });
+  on_session<v1::HistoryRequest>(
+      call, [call](const v1::HistoryRequest& req, const SessionPtr& session) {
+        v1::EditResponse response;
+        Status s = session->step_history(Session::History::Redo, call->principal(), response,
+                                         req.request_id());
+        reply(call, s, response);
+      });
 }
 
 void RepairService::subscribe(const CallPtr& call) {

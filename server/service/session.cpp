@@ -637,7 +637,8 @@ Status Session::commit_cache_edit(v1::MeshDelta delta, const std::string& princi
 }
 
 Status Session::step_history(History direction, const std::string& principal,
-                             v1::EditResponse& response) {
+                             v1::EditResponse& response, const std::string& request_id) {
+  if (answered_before(request_id, response)) return {};
   const bool undoing = direction == History::Undo;
   const std::vector<std::uint64_t>& from = undoing ? undo_ : redo_;
   if (from.empty())
@@ -653,7 +654,7 @@ Status Session::step_history(History direction, const std::string& principal,
                                       : rpc::rebase_delta(original.delta(), document_.version);
   response.mutable_delta()->set_description((undoing ? "undo " : "redo ") + std::to_string(target));
   const JournalKind kind = undoing ? JournalKind::Undo : JournalKind::Redo;
-  if (Status s = commit(kind, target, response, principal, ""); !s.is_ok()) {
+  if (Status s = commit(kind, target, response, principal, request_id); !s.is_ok()) {
     geometry_.invalidate();
     return s;
   }

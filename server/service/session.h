@@ -73,8 +73,10 @@ class Session : public std::enable_shared_from_this<Session> {
   Status sharp_edge(const v1::SharpEdgeRequest& request, const std::string& principal,
                     v1::SharpEdgeResponse& response);
   enum class History { Undo, Redo };
-  //! Undoes the last edit (journaled as the inverse delta) or redoes the last undone one.
-  Status step_history(History direction, const std::string& principal, v1::EditResponse& response);
+  //! Undoes the last edit (journaled as the inverse delta) or redoes the last undone one. A
+  //! \p request_id already journaled answers with that step again instead of taking another.
+  Status step_history(History direction, const std::string& principal, v1::EditResponse& response,
+                      const std::string& request_id = "");
   std::vector<v1::Hole> holes();
   SessionGeometry::Nearest nearest_hole(const v1::Point3& point);
   Status export_mesh(const v1::ExportMeshRequest& request, std::string& bytes);

@@ -1213,6 +1213,13 @@ TEST(Service, AFailedFsyncMakesTheServerFailStopUntilARestart) {
   v1::ListHolesResponse left;
   ASSERT_TRUE(after.list_holes(session, left).is_ok());
   EXPECT_EQ(left.holes_size(), holes.holes_size() - 2);
+  // An undo sent again with its request_id is the same step (the id travels in HistoryRequest).
+  v1::EditResponse undone, undone_again;
+  ASSERT_TRUE(after.undo(session, undone, "eio-undo-1").is_ok());
+  ASSERT_TRUE(after.undo(session, undone_again, "eio-undo-1").is_ok());
+  EXPECT_EQ(undone_again.version(), undone.version());
+  ASSERT_TRUE(after.list_holes(session, left).is_ok());
+  EXPECT_EQ(left.holes_size(), holes.holes_size() - 1);
 }
 
 }  // namespace

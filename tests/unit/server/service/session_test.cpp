@@ -610,6 +610,48 @@ TEST_F(SessionTest, FillUndoCyclesReuseSlotsAndRecoverIdentically) {
   EXPECT_EQ(hole_ids(*recovered).size(), 2u);
 }
 
+// An undo or redo sent again with its request_id (its answer was lost, the client reconnected,
+// the server restarted) is answered with the step it took, not taken twice (AIP-155).
+TEST_F(SessionTest, AnUndoOrRedoSentAgainWithItsRequestIdIsTakenOnce) {
+  auto session = make_session();
+  ASSERT_TRUE(load_sample(*session));
+  const auto holes = hole_ids(*session);
+  ASSERT_GE(holes.size(), 2u);
+  v1::EditResponse a, b;
+  ASSERT_TRUE(fill_one(*session, holes[0], a).is_ok());
+  ASSERT_TRUE(fill_one(*session, holes[1], b).is_ok());
+  const auto after_fills = hole_ids(*session);
+
+  v1::EditResponse undone, undone_again;
+  ASSERT_TRUE(session->step_history(Session::History::Undo, "local", undone, "u-1").is_ok());
+  ASSERT_TRUE(session->step_history(Session::History::Undo, "local", undone_again, "u-1").is_ok());
+  EXPECT_EQ(undone_again.SerializeAsString(), undone.SerializeAsString());
+  EXPECT_EQ(session->version(), b.version() + 1);
+  EXPECT_EQ(hole_ids(*session).size(), after_fills.size() + 1);  // only b's hole back
+
+  v1::EditResponse redone, redone_again;
+  ASSERT_TRUE(session->step_history(Session::History::Redo, "local", redone, "r-1").is_ok());
+  ASSERT_TRUE(session->step_history(Session::History::Redo, "local", redone_again, "r-1").is_ok());
+  EXPECT_EQ(redone_again.SerializeAsString(), redone.SerializeAsString());
+  EXPECT_EQ(session->version(), b.version() + 2);
+  EXPECT_EQ(hole_ids(*session), after_fills);
+  // Without an id each call is a step of its own.
+  v1::EditResponse plain, plain_again;
+  ASSERT_TRUE(session->step_history(Session::History::Undo, "local", plain).is_ok());
+  ASSERT_TRUE(session->step_history(Session::History::Undo, "local", plain_again).is_ok());
+  EXPECT_EQ(plain_again.version(), plain.version() + 1);
+  EXPECT_EQ(hole_ids(*session), holes);
+
+  // The ids are in the journal: after a restart the old ids still answer with their steps.
+  auto recovered = make_session();
+  ASSERT_TRUE(recovered->recover().is_ok());
+  v1::EditResponse replayed;
+  ASSERT_TRUE(recovered->step_history(Session::History::Undo, "local", replayed, "u-1").is_ok());
+  EXPECT_EQ(replayed.SerializeAsString(), undone.SerializeAsString());
+  EXPECT_EQ(recovered->version(), session->version());
+  EXPECT_EQ(hole_ids(*recovered), holes);
+}
+
 // Recovery from a periodic snapshot, which lives in the snapshot file, and the journal past it:
 // the same document and history as the session that wrote them.
 TEST_F(SessionTest, RecoversFromAPeriodicSnapshotAndTheJournalPastIt) {
