@@ -260,7 +260,8 @@ std::filesystem::path Store::snapshot_file(const std::filesystem::path& store_fi
   return store_file.string() + "-snapshots";
 }
 
-std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& status) {
+std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& status,
+                                   const StoreOptions& options) {
   sqlite3* db = nullptr;
   if (sqlite3_open_v2(file.c_str(), &db,
                       SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
@@ -271,6 +272,8 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& file, Status& st
     return nullptr;
   }
   std::unique_ptr<Store> store(new Store(db));
+  store->directory_ = file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
+  store->options_ = options;
   sqlite3_busy_timeout(db, 5000);
   // WAL + FULL: a commit is on disk when sqlite3_step returns, and readers never block it.
   for (const char* pragma :
@@ -328,7 +331,15 @@ std::uint64_t Store::background_checkpoints() const {
   return checkpointer_ ? checkpointer_->done() : 0;
 }
 
-StoreCondition Store::condition() const {
+StoreCondition Store::condition() {
+  // A full disk that has room again is ready again, before any write finds out: a load
+  // balancer or a client waiting for readiness would otherwise never send the write that ends
+  // the condition.
+  if (health_.load() == StoreHealth::DiskFull) {
+    std::error_code ec;
+    const std::filesystem::space_info space = std::filesystem::space(directory_, ec);
+    if (!ec && space.available >= options_.room_to_resume) wrote();
+  }
   std::lock_guard lock(condition_mutex_);
   return {health_.load(), condition_reason_};
 }
@@ -390,7 +401,7 @@ void Store::fail_stop(const std::string& reason) {
               "recover from the journal"}});
 }
 
-Status Store::refusal() const {
+Status Store::refusal() {
   if (health_.load() != StoreHealth::Failed) return {};
   return {StatusCode::Unavailable,
           condition().reason +

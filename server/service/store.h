@@ -90,10 +90,17 @@ struct StoreCondition {
   std::string reason;  //!< empty when Ok
 };
 
+struct StoreOptions {
+  //! Free space on the store's file system that ends a full-disk condition before a write
+  //! does (condition()): enough for a few edits' journal entries.
+  std::uintmax_t room_to_resume = std::uintmax_t{1} << 20;
+};
+
 class Store {
  public:
   //! Opens (creating if needed) the store file and its schema.
-  static std::unique_ptr<Store> open(const std::filesystem::path& file, Status& status);
+  static std::unique_ptr<Store> open(const std::filesystem::path& file, Status& status,
+                                     const StoreOptions& options = {});
   ~Store();
   Store(const Store&) = delete;
   Store& operator=(const Store&) = delete;
@@ -141,8 +148,10 @@ class Store {
   //! commits, as SQLite does by default (the checkpointer's connection could not be opened).
   std::uint64_t background_checkpoints() const;
 
-  //! Whether the store takes writes, and why not (for readiness, Health and /metrics).
-  StoreCondition condition() const;
+  //! Whether the store takes writes, and why not (for readiness, Health and /metrics). A full
+  //! disk is over once a write goes through again or its file system has
+  //! StoreOptions::room_to_resume free.
+  StoreCondition condition();
   //! Writes refused because the disk was full (for /metrics).
   std::uint64_t disk_full_refusals() const {
     return disk_full_refusals_.load(std::memory_order_relaxed);
@@ -158,7 +167,7 @@ class Store {
   Status failure(sqlite3* db, const std::string& what);
   Status error(const char* what) { return failure(db_, what); }
   //! Non-OK (UNAVAILABLE) once the store has failed: every write starts with it.
-  Status refusal() const;
+  Status refusal();
   //! Makes the store fail-stop for \p reason (the first reason is kept).
   void fail_stop(const std::string& reason);
   //! A write went through: a full disk has room again.
@@ -170,8 +179,10 @@ class Store {
   std::mutex snapshot_mutex_;
   double last_commit_seconds_ = 0;
   std::unique_ptr<WalCheckpointer> checkpointer_;
+  std::filesystem::path directory_;  //!< the store file's, for its free space
+  StoreOptions options_;
   std::atomic<StoreHealth> health_{StoreHealth::Ok};
-  mutable std::mutex condition_mutex_;
+  std::mutex condition_mutex_;
   std::string condition_reason_;  //!< guarded by condition_mutex_
   std::atomic<std::uint64_t> disk_full_refusals_{0};
 };

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <atomic>
 #include <boost/asio.hpp>
+#include <cstring>
 #include <fcntl.h>
 #include <future>
 #include <random>
 #include <signal.h>
+#include <sys/mount.h>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -1220,6 +1222,102 @@ TEST(Service, AFailedFsyncMakesTheServerFailStopUntilARestart) {
   EXPECT_EQ(undone_again.version(), undone.version());
   ASSERT_TRUE(after.list_holes(session, left).is_ok());
   EXPECT_EQ(left.holes_size(), holes.holes_size() - 1);
+}
+
+//! A tmpfs of \p megabytes mounted at \p directory while it lives (root only: mounted() false
+//! and why() says so otherwise).
+class SmallDisk {
+ public:
+  SmallDisk(const std::filesystem::path& directory, int megabytes) : directory_(directory) {
+    std::filesystem::create_directories(directory);
+    const std::string options = "size=" + std::to_string(megabytes) + "m";
+    if (::mount("tmpfs", directory.c_str(), "tmpfs", 0, options.c_str()) == 0)
+      mounted_ = true;
+    else
+      why_ = std::string("cannot mount a tmpfs (needs root): ") + std::strerror(errno);
+  }
+  ~SmallDisk() {
+    if (mounted_) ::umount2(directory_.c_str(), MNT_DETACH);
+  }
+  bool mounted() const { return mounted_; }
+  const std::string& why() const { return why_; }
+  //! Writes \p file until the disk is full.
+  void fill_up(const std::filesystem::path& file) const {
+    const int fd = ::open(file.c_str(), O_CREAT | O_WRONLY | O_TRUNC, 0644);
+    const std::string chunk(64 << 10, 'x');
+    while (fd >= 0 && ::write(fd, chunk.data(), chunk.size()) > 0) {
+    }
+    if (fd >= 0) ::close(fd);
+  }
+
+ private:
+  std::filesystem::path directory_;
+  bool mounted_ = false;
+  std::string why_;
+};
+
+// A full disk under a real server (its data dir on a 16 MiB tmpfs, a file filling the rest,
+// SERVICE.md §5.3 "Disk full"): edits are refused with RESOURCE_EXHAUSTED, reads and Health are
+// served, /readyz says why; once the file is removed the server is ready again and takes the
+// same edit, with no restart, and a restart finds the journal whole.
+TEST(Service, AFullDiskRefusesEditsUntilSpaceIsFreed) {
+  TempDir dir;
+  SmallDisk disk(dir.path() / "store", 16);
+  if (!disk.mounted()) GTEST_SKIP() << disk.why();
+  ServerProcess server(dir.path());
+  ASSERT_TRUE(server.start()) << server.log();
+  auto channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient client(channel);
+  const std::string session = make_session(client, "full");
+  v1::ListHolesResponse holes;
+  ASSERT_TRUE(client.list_holes(session, holes).is_ok());
+  ASSERT_GE(holes.holes_size(), 2);
+  v1::EditResponse first;
+  ASSERT_TRUE(client.fill_holes(fill_request(session, holes.holes(0).id()), first).is_ok());
+
+  const auto filler = dir.path() / "store" / "filler";
+  disk.fill_up(filler);
+  v1::FillHolesRequest edit = fill_request(session, holes.holes(1).id());
+  edit.set_request_id("full-fill-1");
+  v1::EditResponse refused;
+  const Status full = client.fill_holes(edit, refused);
+  EXPECT_EQ(full.code, StatusCode::ResourceExhausted) << full.to_string();
+  EXPECT_NE(full.message.find("full"), std::string::npos) << full.message;
+  v1::HealthResponse health;
+  ASSERT_TRUE(client.health(health).is_ok());
+  EXPECT_FALSE(health.serving());
+  EXPECT_NE(health.not_serving_reason().find("full"), std::string::npos);
+  RawResult ready = raw_exchange(
+      server.metrics_port(), "GET /readyz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(ready.received.find("503"), std::string::npos) << ready.received;
+  rpc::MeshDocument served;
+  ASSERT_TRUE(client.download_document(session, served).is_ok());
+  EXPECT_EQ(served.version, first.version());
+
+  std::filesystem::remove(filler);
+  // Ready again before any write has found out.
+  ready = raw_exchange(server.metrics_port(),
+                       "GET /readyz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(ready.received.find("200 OK"), std::string::npos) << ready.received;
+  v1::EditResponse taken;
+  ASSERT_TRUE(client.fill_holes(edit, taken).is_ok());
+  EXPECT_EQ(taken.version(), first.version() + 1);
+  ASSERT_TRUE(client.health(health).is_ok());
+  EXPECT_TRUE(health.serving()) << health.not_serving_reason();
+
+  EXPECT_EQ(server.stop(SIGTERM), 0);
+  ASSERT_TRUE(server.start()) << server.log();
+  channel = server.connect();
+  ASSERT_TRUE(channel);
+  RepairClient after(channel);
+  rpc::MeshDocument recovered;
+  ASSERT_TRUE(after.download_document(session, recovered).is_ok());
+  EXPECT_EQ(recovered.version, taken.version());
+  v1::ListHolesResponse left;
+  ASSERT_TRUE(after.list_holes(session, left).is_ok());
+  EXPECT_EQ(left.holes_size(), holes.holes_size() - 2);
+  server.stop(SIGTERM);
 }
 
 }  // namespace
