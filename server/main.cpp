@@ -90,6 +90,7 @@ int main(int argc, char** argv) {
   unsigned max_upload_mb = 256;
   unsigned hello_timeout_ms = 10'000;
   unsigned keepalive_timeout_ms = 20'000;
+  unsigned max_call_rate = 5'000;
   unsigned max_frame_kb = 1024;
   unsigned queue_soft_kb = 4096;
   unsigned queue_hard_kb = 16384;
@@ -114,7 +115,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
   app.add_option("--metrics", metrics_address,
-                 "HOST:PORT for /metrics (Prometheus) and /healthz over HTTP");
+                 "HOST:PORT for /metrics (Prometheus), /healthz and /readyz over HTTP");
   app.add_option("--job-workers", job_workers, "Threads running fill jobs")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
@@ -153,6 +154,12 @@ int main(int argc, char** argv) {
                  "as long, and at least 30 s)")
       ->capture_default_str()
       ->check(CLI::Range(500, 3600000));
+  app.add_option(
+         "--max-call-rate", max_call_rate,
+         "Calls a connection may start per second (bursts of twice as many): a client past\n"
+         "it, such as an open/cancel storm, gets GOAWAY RESOURCE_EXHAUSTED and is closed")
+      ->capture_default_str()
+      ->check(CLI::Range(10, 1'000'000));
   app.add_option("--port-file", port_file,
                  "Write the bound port(s) here once listening (for scripts)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
@@ -251,6 +258,8 @@ int main(int argc, char** argv) {
   connection_limits.hard_queue_bytes = std::max<std::size_t>(
       std::size_t{queue_hard_kb} << 10, connection_limits.soft_queue_bytes * 2);
   connection_limits.keepalive_timeout = std::chrono::milliseconds(keepalive_timeout_ms);
+  connection_limits.max_call_rate = max_call_rate;
+  connection_limits.max_call_burst = 2.0 * max_call_rate;
   connection_limits.ping_interval =
       std::min(connection_limits.ping_interval, connection_limits.keepalive_timeout / 4);
   RpcServer server(io, service, auth, metrics, connection_limits);

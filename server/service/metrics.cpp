@@ -70,6 +70,9 @@ std::string Metrics::render() const {
           slow_consumer_resyncs.load());
   counter("touchmend_slow_consumer_disconnects_total", "Connections closed for an overfull queue",
           slow_consumer_disconnects.load());
+  counter("touchmend_call_rate_disconnects_total",
+          "Connections closed for starting calls faster than the call rate limit",
+          call_rate_disconnects.load());
   counter("touchmend_tool_samples_total", "Tool samples received", tool_samples.load());
   counter("touchmend_tool_samples_conflated_total", "Tool samples superseded before processing",
           tool_samples_conflated.load());

@@ -52,6 +52,7 @@ class Metrics {
   std::atomic<std::uint64_t> deltas_dropped{0};
   std::atomic<std::uint64_t> slow_consumer_resyncs{0};
   std::atomic<std::uint64_t> slow_consumer_disconnects{0};
+  std::atomic<std::uint64_t> call_rate_disconnects{0};
   std::atomic<std::uint64_t> tool_samples{0};
   std::atomic<std::uint64_t> tool_samples_conflated{0};
   std::atomic<std::uint64_t> jobs_submitted{0};

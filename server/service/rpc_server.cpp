@@ -1,5 +1,7 @@
 #include "server/service/rpc_server.h"
 
+#include <fmt/format.h>
+
 #include "server/service/log.h"
 
 namespace touchmend::service {
@@ -276,6 +278,8 @@ void Connection::handle_hello(const v1::Frame& frame) {
   }
   authenticated_ = true;
   principal_ = principal;
+  call_tokens_ = limits_.max_call_burst;
+  call_tokens_at_ = std::chrono::steady_clock::now();
   hello_timer_.cancel();
   ack.set_principal(principal);
   enqueue(ack, true);
@@ -301,6 +305,24 @@ void Connection::handle_call(v1::Frame& frame) {
     flush();
     return;
   }
+  // The bucket fills at max_call_rate up to max_call_burst; each call takes a token.
+  const auto now = std::chrono::steady_clock::now();
+  call_tokens_ =
+      std::min(limits_.max_call_burst,
+               call_tokens_ + limits_.max_call_rate *
+                                  std::chrono::duration<double>(now - call_tokens_at_).count());
+  call_tokens_at_ = now;
+  if (call_tokens_ < 1) {
+    metrics_.call_rate_disconnects.fetch_add(1);
+    log_event(spdlog::level::warn, "call_rate_exceeded",
+              {{"conn_id", id_}, {"peer", peer_.address().to_string()}, {"principal", principal_}});
+    // At once, so the frames read after this call are not handled (the read loop stops).
+    go_away_on_strand({StatusCode::ResourceExhausted,
+                       fmt::format("more than {:.0f} calls per second started on this connection",
+                                   limits_.max_call_rate)});
+    return;
+  }
+  call_tokens_ -= 1;
   if (calls_.size() >= limits_.max_concurrent_calls) {
     enqueue(trailers(call_id, {StatusCode::ResourceExhausted,
                                "more than " + std::to_string(limits_.max_concurrent_calls) +
@@ -504,16 +526,19 @@ void Connection::on_keepalive_tick() {
 }
 
 void Connection::go_away(Status status) {
-  asio::dispatch(strand_, [self = shared_from_this(), s = std::move(status)] {
-    if (self->closed_ || self->closing_) return;
-    v1::Frame goaway;
-    goaway.set_kind(v1::GOAWAY);
-    goaway.mutable_status()->set_code(static_cast<int>(s.code));
-    goaway.mutable_status()->set_message(s.message);
-    self->enqueue(goaway, true);
-    self->closing_ = true;
-    self->flush();
-  });
+  asio::dispatch(
+      strand_, [self = shared_from_this(), s = std::move(status)] { self->go_away_on_strand(s); });
+}
+
+void Connection::go_away_on_strand(const Status& status) {
+  if (closed_ || closing_) return;
+  v1::Frame goaway;
+  goaway.set_kind(v1::GOAWAY);
+  goaway.mutable_status()->set_code(static_cast<int>(status.code));
+  goaway.mutable_status()->set_message(status.message);
+  enqueue(goaway, true);
+  closing_ = true;
+  flush();
 }
 
 void Connection::close(const std::string& reason) {

@@ -38,6 +38,12 @@ using tcp = asio::ip::tcp;
 struct ConnectionLimits {
   std::size_t max_frame_bytes = rpc::kDefaultMaxFrameBytes;
   std::size_t max_concurrent_calls = 100;
+  //! Calls a connection may start per second, sustained, and in a burst (a token bucket,
+  //! SERVICE.md §5.3 "Open/cancel storm"): past them the connection gets GOAWAY
+  //! RESOURCE_EXHAUSTED and is closed. Far above the station's pushes (one per tool step, each
+  //! a round trip) and a batch client's calls; an open/cancel storm passes them within a second.
+  double max_call_rate = 5'000;
+  double max_call_burst = 10'000;
   std::chrono::milliseconds hello_timeout{10'000};
   std::chrono::milliseconds ping_interval{5'000};
   std::chrono::milliseconds keepalive_timeout{20'000};
@@ -131,6 +137,8 @@ class Connection : public std::enable_shared_from_this<Connection> {
  private:
   friend class ServerCall;
   using Strand = asio::strand<asio::any_io_executor>;
+  //! go_away from the strand: the GOAWAY is queued before the caller goes on.
+  void go_away_on_strand(const Status& status);
 
   void read_more();
   void on_read(const rpc::error_code& ec, std::size_t bytes);
@@ -180,6 +188,8 @@ class Connection : public std::enable_shared_from_this<Connection> {
   asio::steady_timer keepalive_timer_;
   std::chrono::steady_clock::time_point last_received_ = std::chrono::steady_clock::now();
   std::uint64_t next_ping_id_ = 1;
+  double call_tokens_ = 0;  // the call-rate bucket (ConnectionLimits::max_call_rate), set at HELLO
+  std::chrono::steady_clock::time_point call_tokens_at_;
 };
 
 struct TlsConfig {

@@ -497,6 +497,49 @@ TEST(Service, MalformedFramesCloseOnlyThatConnection) {
   EXPECT_TRUE(server_answers(server));
 }
 
+// An open/cancel storm (SERVICE.md §5.3): a connection starting calls faster than the call rate
+// (here 200 per second, bursts of 400) gets GOAWAY RESOURCE_EXHAUSTED and is closed, and is
+// counted; other connections are served as before.
+TEST(Service, AConnectionStartingCallsTooFastIsToldToGoAway) {
+  TempDir dir;
+  ServerProcess server(dir.path(), {"--max-call-rate", "200"});
+  ASSERT_TRUE(server.start()) << server.log();
+  v1::Frame hello;
+  hello.set_kind(v1::HELLO);
+  hello.set_protocol_version(1);
+  std::string storm = rpc::encode_frame(hello);
+  for (std::uint32_t i = 0; i < 2000; ++i) {
+    v1::Frame call;
+    call.set_kind(v1::CALL);
+    call.set_call_id(2 * i + 1);
+    call.set_method(rpc::method_path("Health"));
+    storm += rpc::encode_frame(call);
+    v1::Frame cancel;
+    cancel.set_kind(v1::CANCEL);
+    cancel.set_call_id(2 * i + 1);
+    storm += rpc::encode_frame(cancel);
+  }
+  const RawResult r = raw_exchange(server.port(), storm, 10s);
+  EXPECT_TRUE(r.closed_by_server);
+  const std::vector<v1::Frame> frames = decode_all(r.received);
+  const auto goaway = std::find_if(frames.begin(), frames.end(),
+                                   [](const v1::Frame& f) { return f.kind() == v1::GOAWAY; });
+  ASSERT_NE(goaway, frames.end());
+  EXPECT_EQ(goaway->status().code(), static_cast<int>(StatusCode::ResourceExhausted));
+  EXPECT_NE(goaway->status().message().find("calls per second"), std::string::npos)
+      << goaway->status().message();
+  // The calls within the burst were answered (a GOAWAY overtakes the answers still queued), the
+  // ones after it not handled.
+  const auto answered = std::count_if(frames.begin(), frames.end(),
+                                      [](const v1::Frame& f) { return f.kind() == v1::TRAILERS; });
+  EXPECT_GE(answered, 390);
+  EXPECT_LE(answered, 600);  // 400 plus what the rate refills meanwhile
+  EXPECT_TRUE(server_answers(server));
+  const RawResult metrics = raw_exchange(
+      server.metrics_port(), "GET /metrics HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 5s);
+  EXPECT_NE(metrics.received.find("touchmend_call_rate_disconnects_total 1"), std::string::npos);
+}
+
 TEST(Service, BadRequestsGetAStatusAndTheServerKeepsServing) {
   ServerWithClient connected;
   ASSERT_TRUE(connected.ready()) << connected.server.log();
