@@ -32,6 +32,9 @@ struct RemoteArgs {
   std::string token;   //!< bearer token (or $TOUCHMEND_TOKEN)
   std::string tls_ca;  //!< CA file: connect with TLS and verify the server against it
   bool tls = false;    //!< TLS with the system's CAs
+  //! How many times a call is sent again when the server is unreachable or restarting
+  //! (UNAVAILABLE), with backoff; 0: never (net::RetryPolicy).
+  int retries = 6;
 };
 
 struct InfoArgs {

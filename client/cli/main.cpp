@@ -37,6 +37,13 @@ int main(int argc, char** argv) {
   app.add_option("--tls-ca", remote.tls_ca,
                  "Connect with TLS, verifying the server with this CA file");
   app.add_flag("--tls", remote.tls, "Connect with TLS, verifying the server with the system's CAs");
+  app.add_option("--retries", remote.retries,
+                 "With --server: connect and send a call again up to this many times while the\n"
+                 "server is unreachable or restarting, waiting 0.2 s, 0.4 s, ... up to 5 s between\n"
+                 "tries (about 20 s in all by default). Edits carry request ids, so one sent again\n"
+                 "is never made twice")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100));
 
   InfoArgs info;
   auto* info_cmd =

@@ -3,7 +3,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <random>
 #include <sstream>
+#include <thread>
 #include <unistd.h>
 
 #include <fmt/format.h>
@@ -49,7 +51,19 @@ int report(const Status& s, std::ostream& err, const std::string& what) {
   return exit_for(s);
 }
 
-std::shared_ptr<net::Channel> connect(const RemoteArgs& remote, std::ostream& err, int& code) {
+//! The CLI's retry policy for --retries: 0.2 s doubling up to 5 s (about 20 s for 6 retries).
+net::RetryPolicy retry_policy(const RemoteArgs& remote) {
+  net::RetryPolicy policy;
+  policy.max_attempts = remote.retries + 1;
+  policy.initial_backoff = std::chrono::milliseconds(200);
+  policy.max_backoff = std::chrono::milliseconds(5'000);
+  return policy;
+}
+
+//! A client connected to --server (tried again while it is unreachable, per --retries), with
+//! the retry policy set; null with \p code and a message on failure.
+std::unique_ptr<net::RepairClient> open_client(const RemoteArgs& remote, std::ostream& err,
+                                               int& code) {
   net::ChannelOptions options;
   std::string error;
   if (!net::parse_server_address(remote.server, options, error)) {
@@ -63,13 +77,33 @@ std::shared_ptr<net::Channel> connect(const RemoteArgs& remote, std::ostream& er
   }
   options.tls = remote.tls || !remote.tls_ca.empty();
   options.tls_ca = remote.tls_ca;
+  const net::RetryPolicy policy = retry_policy(remote);
+  auto backoff = policy.initial_backoff;
   Status status;
-  auto channel = net::Channel::connect(options, status);
-  if (!channel) {
-    err << "error: " << remote.server << ": " << status.to_string() << "\n";
-    code = kExitServer;
+  for (int attempt = 1;; ++attempt) {
+    if (auto channel = net::Channel::connect(options, status)) {
+      auto client = std::make_unique<net::RepairClient>(std::move(channel));
+      client->set_retry_policy(policy);
+      return client;
+    }
+    if (status.code != StatusCode::Unavailable || attempt >= policy.max_attempts) break;
+    err << fmt::format("touchmend: {}: {}; trying again in {:.1f} s ({} of {}, --retries)\n",
+                       remote.server, status.message, backoff.count() / 1000.0, attempt,
+                       policy.max_attempts - 1);
+    std::this_thread::sleep_for(backoff);
+    backoff = std::min(policy.max_backoff, backoff * 2);
   }
-  return channel;
+  err << "error: " << remote.server << ": " << status.to_string() << "\n";
+  code = kExitServer;
+  return nullptr;
+}
+
+//! A fresh idempotency key (AIP-155): 128 random bits in hex.
+std::string new_request_id() {
+  std::random_device random;
+  std::string id;
+  for (int i = 0; i < 4; ++i) id += fmt::format("{:08x}", random());
+  return id;
 }
 
 bool read_file(const std::string& path, std::string& bytes, std::ostream& err) {
@@ -221,7 +255,7 @@ int upload_into_session(net::RepairClient& client, const std::string& file,
   std::string bytes;
   if (!read_file(file, bytes, err)) return kExitBadInput;
   v1::SessionInfo info;
-  if (Status s = client.create_session("touchmend " + file, info); !s.is_ok()) {
+  if (Status s = client.create_session("touchmend " + file, info, new_request_id()); !s.is_ok()) {
     return report(s, err, "create session");
   }
   session.id = info.session_id();
@@ -229,7 +263,8 @@ int upload_into_session(net::RepairClient& client, const std::string& file,
   const auto slash = file.find_last_of('/');
   if (Status s =
           client.upload_mesh(session.id, bytes, format,
-                             slash == std::string::npos ? file : file.substr(slash + 1), loaded);
+                             slash == std::string::npos ? file : file.substr(slash + 1), loaded,
+                             /*repeatable=*/true);  // the session is this command's own
       !s.is_ok()) {
     return report(s, err, file);
   }
@@ -250,9 +285,9 @@ bool write_output(const std::string& path, const std::string& bytes, std::ostrea
 int run_holes_remote(const HolesArgs& args, const RemoteArgs& remote, std::ostream& out,
                      std::ostream& err) {
   int code = kExitOk;
-  auto channel = connect(remote, err, code);
-  if (!channel) return code;
-  net::RepairClient client(channel);
+  const auto connected = open_client(remote, err, code);
+  if (!connected) return code;
+  net::RepairClient& client = *connected;
   TemporarySession session{client, {}};
   if (int c = upload_into_session(client, args.file, session, err); c != kExitOk) return c;
   v1::ListHolesResponse holes;
@@ -295,12 +330,13 @@ int run_fill_remote(const FillArgs& args, const RemoteArgs& remote, std::ostream
   if (!make_selection(args, *request.mutable_selection(), *request.mutable_options(), err))
     return kExitUsage;
   int code = kExitOk;
-  auto channel = connect(remote, err, code);
-  if (!channel) return code;
-  net::RepairClient client(channel);
+  const auto connected = open_client(remote, err, code);
+  if (!connected) return code;
+  net::RepairClient& client = *connected;
   TemporarySession session{client, {}};
   if (int c = upload_into_session(client, args.file, session, err); c != kExitOk) return c;
   request.set_session_id(session.id);
+  request.set_request_id(new_request_id());
   v1::EditResponse edit;
   if (Status s = client.fill_holes(request, edit); !s.is_ok()) return report(s, err, args.file);
   std::string bytes;
@@ -363,17 +399,30 @@ int job_exit(const v1::Job& job) {
 }
 
 int wait_for_job(net::RepairClient& client, const std::string& id, const std::string& output,
-                 bool json, std::ostream& out, std::ostream& err) {
-  auto stream = client.watch_job(id);
+                 bool json, const RemoteArgs& remote, std::ostream& out, std::ostream& err) {
   v1::Job job;
   bool have = false;
   const bool show_progress = !json && &err == &std::cerr && ::isatty(STDERR_FILENO) != 0;
-  while (stream->read(job, std::chrono::hours(24))) {
-    have = true;
-    if (show_progress)
-      err << fmt::format("job {}: {} {:.0f}%\r", id, v1::JobState_Name(job.state()),
-                         job.progress() * 100)
-          << std::flush;
+  // A job outlives a server restart (it runs again), so a watch cut by one is started again,
+  // per --retries.
+  const net::RetryPolicy policy = retry_policy(remote);
+  auto backoff = policy.initial_backoff;
+  std::unique_ptr<net::Stream> stream;
+  for (int attempt = 1;; ++attempt) {
+    stream = client.watch_job(id);
+    while (stream->read(job, std::chrono::hours(24))) {
+      have = true;
+      attempt = 1;  // the server is back: the retries start over
+      backoff = policy.initial_backoff;
+      if (show_progress)
+        err << fmt::format("job {}: {} {:.0f}%\r", id, v1::JobState_Name(job.state()),
+                           job.progress() * 100)
+            << std::flush;
+    }
+    if (stream->status().code != StatusCode::Unavailable || attempt >= policy.max_attempts) break;
+    std::this_thread::sleep_for(backoff);
+    backoff = std::min(policy.max_backoff, backoff * 2);
+    if (!client.channel()->is_open()) (void)client.reconnect();
   }
   if (show_progress) err << "\n";
   if (Status s = stream->status(); !s.is_ok()) return report(s, err, "job " + id);
@@ -424,14 +473,15 @@ int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, st
       return kExitUsage;
     spec.set_format(format);
     spec.set_binary_output(args.fill.binary);
+    spec.set_request_id(new_request_id());
     const auto slash = args.fill.file.find_last_of('/');
     spec.set_name(slash == std::string::npos ? args.fill.file : args.fill.file.substr(slash + 1));
     if (!read_file(args.fill.file, bytes, err)) return kExitBadInput;
   }
   int code = kExitOk;
-  auto channel = connect(remote, err, code);
-  if (!channel) return code;
-  net::RepairClient client(channel);
+  const auto connected = open_client(remote, err, code);
+  if (!connected) return code;
+  net::RepairClient& client = *connected;
   v1::Job job;
   if (args.action == "submit") {
     if (Status s = client.submit_job(spec, bytes, job); !s.is_ok()) return report(s, err, "submit");
@@ -443,7 +493,7 @@ int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, st
       }
       return kExitOk;
     }
-    return wait_for_job(client, job.job_id(), args.fill.output, args.fill.json, out, err);
+    return wait_for_job(client, job.job_id(), args.fill.output, args.fill.json, remote, out, err);
   }
   if (args.action == "status") {
     if (Status s = client.get_job(args.job_id, job); !s.is_ok())
@@ -452,7 +502,7 @@ int run_job(const JobArgs& args, const RemoteArgs& remote, std::ostream& out, st
     return kExitOk;
   }
   if (args.action == "wait")
-    return wait_for_job(client, args.job_id, args.fill.output, args.fill.json, out, err);
+    return wait_for_job(client, args.job_id, args.fill.output, args.fill.json, remote, out, err);
   if (args.action == "cancel") {
     if (Status s = client.cancel_job(args.job_id, job); !s.is_ok())
       return report(s, err, "job " + args.job_id);
@@ -497,9 +547,9 @@ int edit_remotely(const RemoteArgs& remote, const std::string& file, const std::
     return kExitUsage;
   }
   int code = kExitOk;
-  auto channel = connect(remote, err, code);
-  if (!channel) return code;
-  net::RepairClient client(channel);
+  const auto connected = open_client(remote, err, code);
+  if (!connected) return code;
+  net::RepairClient& client = *connected;
   TemporarySession session{client, {}};
   if (int c = upload_into_session(client, file, session, err); c != kExitOk) return c;
   if (Status s = edit(client, session.id, response); !s.is_ok()) return report(s, err, file);
@@ -556,6 +606,7 @@ int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::o
     return kExitUsage;
   }
   v1::SharpenRequest request;
+  request.set_request_id(new_request_id());
   request.set_finish(finish == geometry::PushFinish::Smooth ? v1::PUSH_FINISH_SMOOTH
                      : finish == geometry::PushFinish::None ? v1::PUSH_FINISH_NONE
                                                             : v1::PUSH_FINISH_FAIR);
@@ -600,9 +651,9 @@ int run_sharpen_remote(const SharpenArgs& args, const RemoteArgs& remote, std::o
 int run_gaps_remote(const GapsArgs& args, const RemoteArgs& remote, std::ostream& out,
                     std::ostream& err) {
   int code = kExitOk;
-  auto channel = connect(remote, err, code);
-  if (!channel) return code;
-  net::RepairClient client(channel);
+  const auto connected = open_client(remote, err, code);
+  if (!connected) return code;
+  net::RepairClient& client = *connected;
   TemporarySession session{client, {}};
   if (int c = upload_into_session(client, args.file, session, err); c != kExitOk) return c;
   v1::ListGapsRequest request;
@@ -644,6 +695,7 @@ int run_bridge_remote(const BridgeArgs& args, const RemoteArgs& remote, std::ost
     return kExitUsage;
   }
   v1::BridgeGapsRequest request;
+  request.set_request_id(new_request_id());
   if (args.all) request.set_all(true);
   for (const auto id : args.gap_ids) request.mutable_ids()->add_ids(id);
   request.set_max_width(args.max_width);

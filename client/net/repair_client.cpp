@@ -26,6 +26,51 @@ std::shared_ptr<Channel> RepairClient::channel() const {
   return channel_;
 }
 
+void RepairClient::set_retry_policy(const RetryPolicy& policy) {
+  std::lock_guard lock(mutex_);
+  retry_ = policy;
+}
+
+std::uint64_t RepairClient::retries() const {
+  std::lock_guard lock(mutex_);
+  return retries_;
+}
+
+template <class Attempt>
+Status RepairClient::retrying(bool repeatable, Attempt&& attempt) {
+  RetryPolicy policy;
+  {
+    std::lock_guard lock(mutex_);
+    policy = retry_;
+  }
+  static thread_local std::mt19937 jitter(std::random_device{}());
+  std::chrono::milliseconds backoff = policy.initial_backoff;
+  for (int attempts = 1;; ++attempts) {
+    Status s = attempt();
+    if (s.code != StatusCode::Unavailable || !repeatable || attempts >= policy.max_attempts)
+      return s;
+    // Half to all of the backoff ("equal jitter"), so clients cut off together do not all come
+    // back at once.
+    std::uniform_int_distribution<long> wait(backoff.count() / 2, backoff.count());
+    std::this_thread::sleep_for(std::chrono::milliseconds(wait(jitter)));
+    backoff = std::min(policy.max_backoff, backoff * 2);
+    {
+      std::lock_guard lock(mutex_);
+      ++retries_;
+    }
+    // A server that answered UNAVAILABLE itself keeps the connection; a lost one is replaced
+    // (if that fails too, the attempt fails on the closed channel and the loop waits again).
+    if (!channel()->is_open()) (void)reconnect();
+  }
+}
+
+Status RepairClient::unary(const char* method, const google::protobuf::MessageLite& request,
+                           google::protobuf::MessageLite& out, bool repeatable,
+                           std::chrono::milliseconds timeout) {
+  return retrying(repeatable,
+                  [&] { return channel()->unary(method, request, out, timeout); });
+}
+
 Status RepairClient::reconnect() {
   const ChannelOptions options = channel()->options();
   Status status;
@@ -37,7 +82,7 @@ Status RepairClient::reconnect() {
 }
 
 Status RepairClient::health(v1::HealthResponse& out) {
-  return channel()->unary("Health", v1::HealthRequest(), out);
+  return unary("Health", v1::HealthRequest(), out, true);
 }
 
 Status RepairClient::create_session(const std::string& name, v1::SessionInfo& out,
@@ -45,15 +90,15 @@ Status RepairClient::create_session(const std::string& name, v1::SessionInfo& ou
   v1::CreateSessionRequest req;
   req.set_name(name);
   req.set_request_id(request_id);
-  return channel()->unary("CreateSession", req, out);
+  return unary("CreateSession", req, out, !request_id.empty());
 }
 
 Status RepairClient::list_sessions(v1::ListSessionsResponse& out) {
-  return channel()->unary("ListSessions", v1::ListSessionsRequest(), out);
+  return unary("ListSessions", v1::ListSessionsRequest(), out, true);
 }
 
 Status RepairClient::open_session(const std::string& session_id, v1::SessionInfo& out) {
-  return channel()->unary("OpenSession", ref(session_id), out);
+  return unary("OpenSession", ref(session_id), out, true);
 }
 
 Status RepairClient::share_session(const std::string& session_id, const std::string& principal,
@@ -62,12 +107,12 @@ Status RepairClient::share_session(const std::string& session_id, const std::str
   req.set_session_id(session_id);
   req.set_principal(principal);
   req.set_revoke(revoke);
-  return channel()->unary("ShareSession", req, out);
+  return unary("ShareSession", req, out, true);  // sets a membership
 }
 
 Status RepairClient::close_session(const std::string& session_id) {
   v1::CloseSessionResponse out;
-  return channel()->unary("CloseSession", ref(session_id), out);
+  return unary("CloseSession", ref(session_id), out, true);
 }
 
 template <class Chunk>
@@ -94,7 +139,7 @@ Status RepairClient::upload(const std::string& method, std::vector<Chunk> chunks
 
 Status RepairClient::upload_mesh(const std::string& session_id, const std::string& bytes,
                                  v1::MeshFormat format, const std::string& name,
-                                 v1::LoadMeshResponse& out) {
+                                 v1::LoadMeshResponse& out, bool repeatable) {
   std::vector<v1::MeshChunk> chunks;
   for (std::size_t offset = 0; offset < bytes.size() || offset == 0; offset += rpc::kChunkBytes) {
     v1::MeshChunk chunk;
@@ -109,7 +154,7 @@ Status RepairClient::upload_mesh(const std::string& session_id, const std::strin
     chunks.push_back(std::move(chunk));
     if (bytes.empty()) break;
   }
-  return upload("UploadMesh", std::move(chunks), out);
+  return retrying(repeatable, [&] { return upload("UploadMesh", chunks, out); });
 }
 
 Status RepairClient::load_server_mesh(const std::string& session_id, const std::string& path,
@@ -117,11 +162,17 @@ Status RepairClient::load_server_mesh(const std::string& session_id, const std::
   v1::LoadServerMeshRequest req;
   req.set_session_id(session_id);
   req.set_path(path);
-  return channel()->unary("LoadServerMesh", req, out);
+  return unary("LoadServerMesh", req, out, false);  // a new version each time
 }
 
 Status RepairClient::download(const std::string& method,
                               const google::protobuf::MessageLite& request, std::string& bytes) {
+  return retrying(true, [&] { return download_once(method, request, bytes); });
+}
+
+Status RepairClient::download_once(const std::string& method,
+                                   const google::protobuf::MessageLite& request,
+                                   std::string& bytes) {
   auto result = std::make_shared<std::promise<Status>>();
   auto data = std::make_shared<std::string>();
   auto future = result->get_future();
@@ -156,7 +207,7 @@ Status RepairClient::download_document(const std::string& session_id, rpc::MeshD
 }
 
 Status RepairClient::list_holes(const std::string& session_id, v1::ListHolesResponse& out) {
-  return channel()->unary("ListHoles", ref(session_id), out);
+  return unary("ListHoles", ref(session_id), out, true);
 }
 
 Status RepairClient::find_nearest_hole(const std::string& session_id, const v1::Point3& point,
@@ -164,32 +215,32 @@ Status RepairClient::find_nearest_hole(const std::string& session_id, const v1::
   v1::FindNearestHoleRequest req;
   req.set_session_id(session_id);
   *req.mutable_point() = point;
-  return channel()->unary("FindNearestHole", req, out);
+  return unary("FindNearestHole", req, out, true);
 }
 
 Status RepairClient::fill_holes(const v1::FillHolesRequest& request, v1::EditResponse& out,
                                 std::chrono::milliseconds timeout) {
-  return channel()->unary("FillHoles", request, out, timeout);
+  return unary("FillHoles", request, out, !request.request_id().empty(), timeout);
 }
 
 Status RepairClient::stitch(const v1::StitchRequest& request, v1::EditResponse& out) {
-  return channel()->unary("Stitch", request, out);
+  return unary("Stitch", request, out, !request.request_id().empty());
 }
 
 Status RepairClient::sharpen(const v1::SharpenRequest& request, v1::EditResponse& out) {
-  return channel()->unary("Sharpen", request, out);
+  return unary("Sharpen", request, out, !request.request_id().empty());
 }
 
 Status RepairClient::list_gaps(const v1::ListGapsRequest& request, v1::ListGapsResponse& out) {
-  return channel()->unary("ListGaps", request, out);
+  return unary("ListGaps", request, out, true);
 }
 
 Status RepairClient::bridge_gaps(const v1::BridgeGapsRequest& request, v1::EditResponse& out) {
-  return channel()->unary("BridgeGaps", request, out);
+  return unary("BridgeGaps", request, out, !request.request_id().empty());
 }
 
 Status RepairClient::sharp_edge(const v1::SharpEdgeRequest& request, v1::SharpEdgeResponse& out) {
-  return channel()->unary("SharpEdge", request, out);
+  return unary("SharpEdge", request, out, !request.request_id().empty());
 }
 
 namespace {
@@ -203,12 +254,12 @@ v1::HistoryRequest history_request(const std::string& session_id, const std::str
 
 Status RepairClient::undo(const std::string& session_id, v1::EditResponse& out,
                           const std::string& request_id) {
-  return channel()->unary("Undo", history_request(session_id, request_id), out);
+  return unary("Undo", history_request(session_id, request_id), out, !request_id.empty());
 }
 
 Status RepairClient::redo(const std::string& session_id, v1::EditResponse& out,
                           const std::string& request_id) {
-  return channel()->unary("Redo", history_request(session_id, request_id), out);
+  return unary("Redo", history_request(session_id, request_id), out, !request_id.empty());
 }
 
 std::unique_ptr<Stream> RepairClient::server_stream(const std::string& method,
@@ -250,11 +301,12 @@ Status RepairClient::submit_job(v1::JobSpec spec, const std::string& bytes, v1::
     chunks.push_back(std::move(chunk));
     if (bytes.empty()) break;
   }
-  return upload("SubmitFillJob", std::move(chunks), out);
+  return retrying(!spec.request_id().empty(),
+                  [&] { return upload("SubmitFillJob", chunks, out); });
 }
 
 Status RepairClient::get_job(const std::string& job_id, v1::Job& out) {
-  return channel()->unary("GetJob", job_ref(job_id), out);
+  return unary("GetJob", job_ref(job_id), out, true);
 }
 
 std::unique_ptr<Stream> RepairClient::watch_job(const std::string& job_id) {
@@ -262,7 +314,7 @@ std::unique_ptr<Stream> RepairClient::watch_job(const std::string& job_id) {
 }
 
 Status RepairClient::cancel_job(const std::string& job_id, v1::Job& out) {
-  return channel()->unary("CancelJob", job_ref(job_id), out);
+  return unary("CancelJob", job_ref(job_id), out, true);
 }
 
 Status RepairClient::fetch_job_result(const std::string& job_id, std::string& bytes) {
@@ -270,7 +322,7 @@ Status RepairClient::fetch_job_result(const std::string& job_id, std::string& by
 }
 
 Status RepairClient::list_jobs(v1::ListJobsResponse& out) {
-  return channel()->unary("ListJobs", v1::ListJobsRequest(), out);
+  return unary("ListJobs", v1::ListJobsRequest(), out, true);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -43,9 +43,25 @@ class Stream {
   std::shared_ptr<StreamQueue> queue_ = std::make_shared<StreamQueue>();
 };
 
+//! When a call is sent again after UNAVAILABLE (the connection was lost, the server is
+//! restarting, or its store failed and it waits for a restart). As AIP-194 advises, only
+//! UNAVAILABLE is retried, and only calls that are safe to repeat: reads, and edits, session
+//! creations and job submissions that carry a request_id (the server answers a repeated id with
+//! what it already did, AIP-155). Mesh uploads and streams are never repeated (a
+//! SessionReplica resumes its own stream). Off by default: one attempt.
+struct RetryPolicy {
+  int max_attempts = 1;
+  std::chrono::milliseconds initial_backoff{100};  //!< doubled after each attempt, jittered
+  std::chrono::milliseconds max_backoff{2'000};
+};
+
 class RepairClient {
  public:
   explicit RepairClient(std::shared_ptr<Channel> channel) : channel_(std::move(channel)) {}
+  //! See RetryPolicy; a lost connection is replaced (reconnect()) before a retry.
+  void set_retry_policy(const RetryPolicy& policy);
+  //! Retries taken so far (for tests and diagnostics).
+  std::uint64_t retries() const;
   //! The current channel (replaced by reconnect()).
   std::shared_ptr<Channel> channel() const;
   //! Opens a new connection with the same options (after the server went away). Calls in
@@ -61,9 +77,11 @@ class RepairClient {
                        v1::SessionInfo& out);
   Status close_session(const std::string& session_id);
 
-  //! Uploads a mesh file's bytes into a session in 64 KiB chunks.
+  //! Uploads a mesh file's bytes into a session in 64 KiB chunks. A load is a new version each
+  //! time, so it is retried (RetryPolicy) only when \p repeatable: the caller knows loading the
+  //! same bytes again does no harm (a session of its own that it has not edited yet).
   Status upload_mesh(const std::string& session_id, const std::string& bytes, v1::MeshFormat format,
-                     const std::string& name, v1::LoadMeshResponse& out);
+                     const std::string& name, v1::LoadMeshResponse& out, bool repeatable = false);
   Status load_server_mesh(const std::string& session_id, const std::string& path,
                           v1::LoadMeshResponse& out);
   Status export_mesh(const std::string& session_id, v1::MeshFormat format, bool binary,
@@ -102,14 +120,25 @@ class RepairClient {
  private:
   Status download(const std::string& method, const google::protobuf::MessageLite& request,
                   std::string& bytes);
+  Status download_once(const std::string& method, const google::protobuf::MessageLite& request,
+                       std::string& bytes);
   std::unique_ptr<Stream> server_stream(const std::string& method,
                                         const google::protobuf::MessageLite& request);
   template <class Chunk>
   Status upload(const std::string& method, std::vector<Chunk> chunks,
                 google::protobuf::MessageLite& out);
+  //! \p attempt() under the retry policy; \p repeatable: whether the call may be sent again.
+  template <class Attempt>
+  Status retrying(bool repeatable, Attempt&& attempt);
+  //! A unary call under the retry policy.
+  Status unary(const char* method, const google::protobuf::MessageLite& request,
+               google::protobuf::MessageLite& out, bool repeatable,
+               std::chrono::milliseconds timeout = std::chrono::milliseconds(60'000));
 
   mutable std::mutex mutex_;
   std::shared_ptr<Channel> channel_;
+  RetryPolicy retry_;
+  std::uint64_t retries_ = 0;
 };
 
 //! A client-side copy of a session's mesh, kept current from the delta stream: download the

@@ -52,6 +52,9 @@ std::string Metrics::render() const {
   };
   gauge("touchmend_connections", "Open client connections",
         static_cast<double>(connections_open.load()));
+  gauge("touchmend_calls_alive",
+        "Calls the server holds in memory: open calls and those whose last answer is on its way",
+        static_cast<double>(calls_alive.load()));
   counter("touchmend_connections_accepted_total", "Connections accepted",
           connections_accepted.load());
   counter("touchmend_connections_rejected_total", "Connections refused (limits, TLS, auth)",

@@ -41,6 +41,7 @@ class Metrics {
   Metrics();
 
   std::atomic<std::int64_t> connections_open{0};
+  std::atomic<std::int64_t> calls_alive{0};  //!< ServerCall objects in memory
   std::atomic<std::uint64_t> connections_accepted{0};
   std::atomic<std::uint64_t> connections_rejected{0};
   std::atomic<std::uint64_t> frames_received{0};

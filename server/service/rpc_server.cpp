@@ -38,7 +38,13 @@ ServerCall::ServerCall(std::uint32_t id, const rpc::MethodInfo* method, std::str
       method_(method),
       principal_(std::move(principal)),
       connection_(std::move(connection)),
-      metrics_(metrics) {}
+      metrics_(metrics) {
+  if (metrics_) metrics_->calls_alive.fetch_add(1, std::memory_order_relaxed);
+}
+
+ServerCall::~ServerCall() {
+  if (metrics_) metrics_->calls_alive.fetch_sub(1, std::memory_order_relaxed);
+}
 
 void ServerCall::send(std::string payload) {
   if (finished()) return;
@@ -358,9 +364,16 @@ void Connection::handle_call(v1::Frame& frame) {
 void Connection::end_call(std::uint32_t call_id) {
   auto it = calls_.find(call_id);
   if (it == calls_.end()) return;
-  if (it->second->deadline_) it->second->deadline_->cancel();
-  it->second->producer_ = nullptr;
+  const CallPtr call = std::move(it->second);
   calls_.erase(it);
+  if (call->deadline_) call->deadline_->cancel();
+  // The handlers mostly hold the call itself (lambdas capturing it): kept, they would keep the
+  // call, what they captured (an upload's bytes) and, through the call's weak reference, its
+  // connection's memory for ever.
+  call->producer_ = nullptr;
+  call->on_message = nullptr;
+  call->on_half_close = nullptr;
+  call->on_cancel = nullptr;
 }
 
 void Connection::cancel_call(const CallPtr& call, Status status, bool send_trailers) {

@@ -72,6 +72,9 @@ class ServerCall : public std::enable_shared_from_this<ServerCall> {
   ServerCall(std::uint32_t id, const rpc::MethodInfo* method, std::string principal,
              std::weak_ptr<Connection> connection, Metrics* metrics);
 
+  ~ServerCall();
+  ServerCall(const ServerCall&) = delete;
+  ServerCall& operator=(const ServerCall&) = delete;
   std::uint32_t id() const { return id_; }
   const rpc::MethodInfo& method() const { return *method_; }
   const std::string& principal() const { return principal_; }

@@ -268,7 +268,7 @@ TEST_F(Cli, GapsAndBridgeCloseABandCutAroundACube) {
             kExitBadInput);
   EXPECT_EQ(run("bridge " + path("band.off") + " -o " + path("x.off")).code, kExitUsage);
   EXPECT_EQ(run("gaps " + path("band.off") + " --max-width 0.5").out.find("no gaps"), 0u);
-  EXPECT_EQ(run("--server 127.0.0.1:1 gaps " + path("band.off")).code, kExitServer);
+  EXPECT_EQ(run("--server 127.0.0.1:1 --retries 0 gaps " + path("band.off")).code, kExitServer);
 }
 
 TEST_F(Cli, HelpAndUsageErrors) {
