@@ -240,7 +240,13 @@ struct TemporarySession {
   net::RepairClient& client;
   std::string id;
   ~TemporarySession() {
-    if (!id.empty()) client.close_session(id);
+    if (id.empty()) return;
+    // Clean-up, not the command's work: one more try (after a reconnect) at most, so a command
+    // that already failed on an unreachable server does not wait the whole --retries again.
+    net::RetryPolicy once;
+    once.max_attempts = 2;
+    client.set_retry_policy(once);
+    client.close_session(id);
   }
 };
 

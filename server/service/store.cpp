@@ -155,7 +155,10 @@ FailureKind classify_failure(sqlite3* db) {
   // A failed sync is fatal whatever its errno (ENOSPC included): the pages it was to flush may
   // be gone from the kernel's cache (SERVICE.md §3.3).
   if (code == SQLITE_IOERR_FSYNC || code == SQLITE_IOERR_DIR_FSYNC) return FailureKind::Fatal;
-  if ((code & 0xff) == SQLITE_FULL || sqlite3_system_errno(db) == ENOSPC)
+  // An I/O error whose errno is ENOSPC (a write that could not extend a file) is a full disk
+  // too; the errno is the last failed OS call's, so it is asked only of an I/O error.
+  if ((code & 0xff) == SQLITE_FULL ||
+      ((code & 0xff) == SQLITE_IOERR && sqlite3_system_errno(db) == ENOSPC))
     return FailureKind::DiskFull;
   if (code == SQLITE_IOERR_NOMEM) return FailureKind::Other;  // memory, not the disk
   if ((code & 0xff) == SQLITE_IOERR || (code & 0xff) == SQLITE_CORRUPT ||
