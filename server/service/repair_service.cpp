@@ -550,21 +550,18 @@ void RepairService::sharp_edge(const CallPtr& call) {
 }
 
 void RepairService::undo(const CallPtr& call) {
-  on_session<v1::HistoryRequest>(
-      call, [call](const v1::HistoryRequest& req, const SessionPtr& session) {
-        v1::EditResponse response;
-        Status s = session->step_history(Session::History::Undo, call->principal(), response,
-                                         req.request_id());
-        reply(call, s, response);
-      });
+  step_history(call, Session::History::Undo);
 }
 
 void RepairService::redo(const CallPtr& call) {
+  step_history(call, Session::History::Redo);
+}
+
+void RepairService::step_history(const CallPtr& call, Session::History direction) {
   on_session<v1::HistoryRequest>(
-      call, [call](const v1::HistoryRequest& req, const SessionPtr& session) {
+      call, [call, direction](const v1::HistoryRequest& req, const SessionPtr& session) {
         v1::EditResponse response;
-        Status s = session->step_history(Session::History::Redo, call->principal(), response,
-                                         req.request_id());
+        Status s = session->step_history(direction, call->principal(), response, req.request_id());
         reply(call, s, response);
       });
 }

@@ -64,6 +64,7 @@ class RepairService final : public CallDispatcher {
   void sharp_edge(const CallPtr& call);
   void undo(const CallPtr& call);
   void redo(const CallPtr& call);
+  void step_history(const CallPtr& call, Session::History direction);
   void subscribe(const CallPtr& call);
   void interact(const CallPtr& call);
   void submit_fill_job(const CallPtr& call);

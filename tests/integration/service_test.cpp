@@ -1213,12 +1213,6 @@ class SyncFailureInjection {
   pid_t pid_ = -1;
 };
 
-// A failed fsync of the journal on a real server (strace injecting EIO, SERVICE.md §5.3 "fsync
-// EIO"): the edit is answered UNAVAILABLE, not acknowledged; the server goes fail-stop (Health
-// not serving, /readyz 503 with the reason) and, with the disk healthy again, still takes no
-// edit, though it serves reads. After a restart it has every acknowledged edit, takes edits
-// again, and the unacknowledged one, sent again with its request_id, is applied exactly once
-// (its commit may or may not be found complete in the log: what reached the disk decides).
 // A client with a retry policy rides out a server restart (AIP-194): reads, and edits that
 // carry a request_id, are sent again after a reconnect and succeed once the server is back; an
 // edit without one fails at once with UNAVAILABLE (it may have been made: only its sender knows
@@ -1289,6 +1283,12 @@ TEST(Service, TheCommandLineWaitsForARestartingServer) {
   EXPECT_NE(output.find("no holes"), std::string::npos) << output;
 }
 
+// A failed fsync of the journal on a real server (strace injecting EIO, SERVICE.md §5.3 "fsync
+// EIO"): the edit is answered UNAVAILABLE, not acknowledged; the server goes fail-stop (Health
+// not serving, /readyz 503 with the reason) and, with the disk healthy again, still takes no
+// edit, though it serves reads. After a restart it has every acknowledged edit, takes edits
+// again, and the unacknowledged one, sent again with its request_id, is applied exactly once
+// (its commit may or may not be found complete in the log: what reached the disk decides).
 TEST(Service, AFailedFsyncMakesTheServerFailStopUntilARestart) {
   ServerWithClient s;
   ASSERT_TRUE(s.ready()) << s.server.log();
