@@ -55,6 +55,16 @@ void ClientCall::half_close() {
   channel->enqueue(rpc::encode_frame(frame));
 }
 
+std::atomic<std::int64_t> ClientCall::alive_{0};
+
+ClientCall::~ClientCall() {
+  alive_.fetch_sub(1, std::memory_order_relaxed);
+}
+
+std::int64_t ClientCall::alive() {
+  return alive_.load(std::memory_order_relaxed);
+}
+
 void ClientCall::cancel() {
   auto channel = channel_.lock();
   if (!channel) return;
@@ -67,9 +77,7 @@ void ClientCall::cancel() {
   // would destroy the io_context from inside its own run()).
   asio::post(channel->io_, [ch = channel.get(), self = shared_from_this()] {
     if (self->done_) return;
-    self->done_ = true;
-    ch->calls_.erase(self->id_);
-    if (self->on_finish_) self->on_finish_({StatusCode::Cancelled, "cancelled by the client"});
+    ch->end_call(self, {StatusCode::Cancelled, "cancelled by the client"});
   });
 }
 
@@ -239,13 +247,8 @@ void Channel::on_frame(v1::Frame& frame) {
     case v1::TRAILERS: {
       auto it = calls_.find(frame.call_id());
       if (it == calls_.end()) return;
-      auto call = it->second;
-      calls_.erase(it);
-      call->done_ = true;
-      if (call->on_finish_) {
-        call->on_finish_(
-            {rpc::status_code_from_int(frame.status().code()), frame.status().message()});
-      }
+      const auto call = it->second;
+      end_call(call, {rpc::status_code_from_int(frame.status().code()), frame.status().message()});
       return;
     }
     default:
@@ -288,11 +291,17 @@ void Channel::fail_all(const Status& status) {
   open_ = false;
   auto calls = std::move(calls_);
   calls_.clear();
-  for (auto& [id, call] : calls) {
-    call->done_ = true;
-    if (call->on_finish_) call->on_finish_(status);
-  }
+  for (auto& [id, call] : calls) end_call(call, status);
   if (stream_) stream_->close();
+}
+
+void Channel::end_call(const std::shared_ptr<ClientCall>& call, const Status& status) {
+  call->done_ = true;
+  calls_.erase(call->id_);
+  if (call->deadline_) call->deadline_->cancel();
+  if (auto on_finish = std::move(call->on_finish_)) on_finish(status);
+  call->on_finish_ = nullptr;
+  call->on_message_ = nullptr;
 }
 
 void Channel::close() {
@@ -345,14 +354,14 @@ std::shared_ptr<ClientCall> Channel::start_call(const std::string& method,
     flush();
     if (timeout.count() > 0) {
       // The server enforces the deadline too; this covers a server that never answers.
-      auto timer =
-          std::make_shared<asio::steady_timer>(io_, timeout + std::chrono::milliseconds(500));
-      timer->async_wait([this, call, timer](const rpc::error_code& ec) {
-        if (ec || call->done_) return;
-        call->done_ = true;
-        calls_.erase(call->id_);
-        if (call->on_finish_) call->on_finish_({StatusCode::DeadlineExceeded, "deadline exceeded"});
-      });
+      call->deadline_ =
+          std::make_unique<asio::steady_timer>(io_, timeout + std::chrono::milliseconds(500));
+      call->deadline_->async_wait(
+          [this, weak = std::weak_ptr<ClientCall>(call)](const rpc::error_code& ec) {
+            const auto expired = weak.lock();
+            if (ec || !expired || expired->done_) return;
+            end_call(expired, {StatusCode::DeadlineExceeded, "deadline exceeded"});
+          });
     }
   });
   return call;

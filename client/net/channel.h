@@ -5,6 +5,7 @@
 //! carrying many calls, with deadlines, cancellation and PING answers. Its own network thread
 //! runs all socket work; calls may be made from any thread.
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -53,6 +54,10 @@ class ClientCall : public std::enable_shared_from_this<ClientCall> {
   void half_close();
   void cancel();
   std::uint32_t id() const { return id_; }
+  ~ClientCall();
+  //! Calls in memory in this process (all channels): a call is freed once it has ended and its
+  //! owner let go of it (for tests and diagnostics).
+  static std::int64_t alive();
 
  private:
   friend class Channel;
@@ -61,12 +66,19 @@ class ClientCall : public std::enable_shared_from_this<ClientCall> {
       : channel_(std::move(channel)),
         id_(id),
         on_message_(std::move(on_message)),
-        on_finish_(std::move(on_finish)) {}
+        on_finish_(std::move(on_finish)) {
+    alive_.fetch_add(1, std::memory_order_relaxed);
+  }
+  static std::atomic<std::int64_t> alive_;
   std::weak_ptr<Channel> channel_;
   std::uint32_t id_;
   MessageFn on_message_;
   FinishFn on_finish_;
   bool done_ = false;  // network thread only
+  //! The client's own deadline (start_call's timeout), cancelled when the call ends: waiting
+  //! out the timeout it kept every finished call (and its callbacks) for that long, a minute by
+  //! default: at the station's push rate, over a hundred thousand of them.
+  std::unique_ptr<boost::asio::steady_timer> deadline_;
 };
 
 class Channel : public std::enable_shared_from_this<Channel> {
@@ -108,6 +120,9 @@ class Channel : public std::enable_shared_from_this<Channel> {
   void enqueue(std::string bytes);
   void flush();
   void fail_all(const Status& status);
+  //! Ends \p call (network thread): out of calls_, its deadline cancelled, on_finish_ told
+  //! \p status, its callbacks dropped.
+  void end_call(const std::shared_ptr<ClientCall>& call, const Status& status);
 
   ChannelOptions options_;
   boost::asio::io_context io_;

@@ -1134,9 +1134,11 @@ double metric(const ServerProcess& server, const std::string& gauge) {
 // A finished call leaves nothing behind: its handlers (which hold the call) are dropped with
 // it, so the call, what they captured (an upload's bytes) and its connection's memory are
 // freed (touchmend_calls_alive back to 0; the handlers of every finished call used to keep it
-// for ever). A server stopped with clients connected exits cleanly (0: under the sanitizers
-// that includes no leak at exit).
+// for ever); on the client, a finished call is freed at once, not when its deadline would have
+// passed. A server stopped with clients connected exits cleanly (0: under the sanitizers that
+// includes no leak at exit).
 TEST(Service, FinishedCallsAndClosedConnectionsAreFreed) {
+  const std::int64_t client_calls_before = net::ClientCall::alive();
   ServerWithClient s;
   ASSERT_TRUE(s.ready()) << s.server.log();
   const std::string session = make_session(s.client, "freed");
@@ -1159,6 +1161,8 @@ TEST(Service, FinishedCallsAndClosedConnectionsAreFreed) {
   for (int wait = 0; wait < 100 && (alive = metric(s.server, "touchmend_calls_alive")) != 0; ++wait)
     std::this_thread::sleep_for(20ms);
   EXPECT_EQ(alive, 0);
+  // The client's side too: a finished call is not kept until its deadline (a minute) is over.
+  EXPECT_EQ(net::ClientCall::alive(), client_calls_before);
   EXPECT_EQ(s.server.stop(SIGTERM), 0) << s.server.log();
 }
 
