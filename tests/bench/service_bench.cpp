@@ -8,6 +8,8 @@
 //   4. sharp-edge push-down: a tool sample (SharpEdge push, Algorithm VI) -> the move's delta at
 //      a second client (target p99 <= 5 ms), on a 49k-face cube whose filled edge hole is pushed
 //      back to the edge.
+//   5. with --soak SECONDS only: the soak of SERVICE.md §5.3 (target: RSS growth < 5% after
+//      warm-up, file descriptors stable), cycles of what the command line does per file.
 
 #include <algorithm>
 #include <array>
@@ -314,6 +316,78 @@ void sweep(const ServerProcess& server, pid_t pid, int clients, double seconds) 
       late_ticks);
 }
 
+//! Open file descriptors of \p pid.
+std::size_t open_fds(pid_t pid) {
+  std::error_code ec;
+  std::size_t n = 0;
+  for (auto it = std::filesystem::directory_iterator("/proc/" + std::to_string(pid) + "/fd", ec);
+       !ec && it != std::filesystem::directory_iterator(); it.increment(ec))
+    ++n;
+  return n;
+}
+
+//! SERVICE.md §5.3's soak: for \p seconds, cycles of what `touchmend --server ... fill` does
+//! per file (connect, create a session, upload the annulus, list its holes, fill, undo, fill
+//! again, export, close the session, disconnect) plus a subscriber on each session; the server's
+//! RSS and open descriptors after the first tenth (warm-up) and at the end.
+void soak(const ServerProcess& server, pid_t pid, double seconds) {
+  const std::string mesh = annulus_off(300);
+  const auto start = Clock::now();
+  const auto warm_until = start + std::chrono::duration<double>(seconds / 10);
+  const auto end = start + std::chrono::duration<double>(seconds);
+  std::optional<ProcessUsage> warm;
+  std::size_t warm_fds = 0;
+  std::size_t cycles = 0, failures = 0;
+  std::vector<double> cycle_ms;
+  while (Clock::now() < end) {
+    const auto cycle_start = Clock::now();
+    auto channel = server.connect();
+    if (!channel) {
+      ++failures;
+      continue;
+    }
+    net::RepairClient client(channel);
+    v1::SessionInfo info;
+    v1::LoadMeshResponse loaded;
+    v1::ListHolesResponse holes;
+    v1::EditResponse edit;
+    std::string exported;
+    bool ok = client.create_session("soak", info).is_ok() &&
+              client.upload_mesh(info.session_id(), mesh, v1::OFF, "soak.off", loaded).is_ok();
+    auto watcher = ok ? client.subscribe(info.session_id(), loaded.session().version()) : nullptr;
+    ok = ok && client.list_holes(info.session_id(), holes).is_ok() && holes.holes_size() > 0;
+    if (ok) {
+      v1::FillHolesRequest fill;
+      fill.set_session_id(info.session_id());
+      fill.mutable_selection()->mutable_ids()->add_ids(holes.holes(0).id());
+      ok = client.fill_holes(fill, edit).is_ok() && client.undo(info.session_id(), edit).is_ok() &&
+           client.fill_holes(fill, edit).is_ok() &&
+           client.export_mesh(info.session_id(), v1::OFF, false, exported).is_ok();
+    }
+    if (watcher) watcher->cancel();
+    if (!info.session_id().empty()) ok = client.close_session(info.session_id()).is_ok() && ok;
+    failures += !ok;
+    ++cycles;
+    cycle_ms.push_back(
+        std::chrono::duration<double, std::milli>(Clock::now() - cycle_start).count());
+    if (!warm && Clock::now() >= warm_until) {
+      std::this_thread::sleep_for(100ms);  // the connection just closed is gone
+      warm = usage_of(pid);
+      warm_fds = open_fds(pid);
+    }
+  }
+  std::this_thread::sleep_for(200ms);
+  const ProcessUsage last = usage_of(pid);
+  const std::size_t last_fds = open_fds(pid);
+  const double growth = warm ? 100 * (last.rss_mib - warm->rss_mib) / warm->rss_mib : 0;
+  std::cout << fmt::format(
+      "soak {:.0f} s: {} cycles ({} failed), cycle {}\n  server RSS {:.1f} MiB after the "
+      "warm-up, {:.1f} MiB at the end ({:+.1f}%; target < 5%), peak {:.1f} MiB; open files {} "
+      "-> {}\n",
+      seconds, cycles, failures, percentiles(cycle_ms), warm ? warm->rss_mib : 0.0, last.rss_mib,
+      growth, last.peak_rss_mib, warm_fds, last_fds);
+}
+
 void batch(const ServerProcess& server) {
   auto channel = server.connect();
   net::RepairClient client(channel);
@@ -361,6 +435,13 @@ int main(int argc, char** argv) {
   app.add_option("--sweep-clients", sweep_clients, "Client counts for the sweep runs")
       ->capture_default_str();
   app.add_flag("--skip-sweep", skip_sweep, "Only the round trip and the batch");
+  double soak_seconds = 0;
+  app.add_option("--soak", soak_seconds,
+                 "Only the soak, for this many seconds: cycles of connect, create a session, "
+                 "upload, list holes, fill, undo, fill, export, close, disconnect (with a "
+                 "subscriber); the server's RSS growth after a tenth of the time, and its open "
+                 "files")
+      ->check(CLI::NonNegativeNumber);
   std::string mesh_path;
   std::vector<double> near;
   app.add_option("--mesh", mesh_path,
@@ -396,6 +477,10 @@ int main(int argc, char** argv) {
   }
   std::cout << fmt::format("machine: {} cores; server {}\n", std::thread::hardware_concurrency(),
                            TOUCHMEND_SERVER_PATH);
+  if (soak_seconds > 0) {
+    soak(server, server.pid(), soak_seconds);
+    return 0;
+  }
   round_trip(server, iterations, false, trip);
   round_trip(server, iterations, true, trip);
   if (!mesh_path.empty()) return 0;
